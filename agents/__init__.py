@@ -1,0 +1,1 @@
+"""agents for vsa-gym (see README)."""

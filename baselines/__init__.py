@@ -1,0 +1,1 @@
+"""baselines for vsa-gym (see README)."""

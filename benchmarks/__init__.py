@@ -1,0 +1,1 @@
+"""benchmarks for vsa-gym (see README)."""

@@ -1,0 +1,1 @@
+"""Component library: each physical component written once, batched over a leading axis."""

@@ -1,0 +1,87 @@
+"""Brushed (or brushless, per-phase-equivalent) DC motor with its amplifier limits.
+
+Equations (vsaUT-II Sec. III-B; eLPAS eqs. 1-4)::
+
+    L di/dt = u_eff - k_e * omega - R * i              (armature circuit)
+    tau_m   = k_t * i - b * omega                       (shaft torque after viscous friction)
+    P_el    = u_eff * i                                 (power drawn from the supply; < 0 regenerates)
+
+The amplifier limits act on the applied voltage ``u_eff`` (a voltage-foldback
+current limiter, as a current-limited H-bridge behaves):
+
+    u_hi = min(U_max,  R I_max + k_e omega)
+    u_lo = max(-U_max, -R I_max + k_e omega)
+    u_eff = min(max(u, u_lo), u_hi)
+
+so ``|u_eff| <= U_max`` always and, at ``|i| = I_max``, ``di/dt`` can no longer push
+the current outward; the current therefore never exceeds ``I_max`` once inside.
+The map is continuous in ``(u, i, omega)``, which keeps the right-hand side
+Lipschitz for the integrators.
+
+Shapes: every argument is a float or an array broadcastable to ``(n,)``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from vsa_gym.physics.parameters import ParameterSet, param
+
+
+@dataclasses.dataclass(frozen=True)
+class DCMotorParams(ParameterSet):
+    """Parameters of one DC motor and its amplifier.
+
+    Defaults are the Maxon RE-40 of the vsaUT-II (Table II); use the
+    constructors in the device modules for the other motors.
+    """
+
+    L: float = param(8.23e-5, symbol="L", unit="H", source="vsaUT-II Table II (RE-40)", tag="paper",
+                     lower=0.0, strict_lower=True, doc="armature inductance")
+    R: float = param(0.317, symbol="R", unit="ohm", source="vsaUT-II Table II (RE-40)", tag="paper",
+                     lower=0.0, strict_lower=True, doc="armature resistance")
+    k_t: float = param(3.02e-2, symbol="k_t", unit="N m/A", source="vsaUT-II Table II (RE-40)",
+                       tag="paper", lower=0.0, strict_lower=True, doc="torque constant")
+    k_e: float = param(3.02e-2, symbol="k_e", unit="V s/rad", source="vsaUT-II Table II (RE-40)",
+                       tag="paper", lower=0.0, strict_lower=True, doc="back-EMF constant")
+    J: float = param(1.38e-5, symbol="J_m", unit="kg m^2", source="vsaUT-II Table II (RE-40)",
+                     tag="paper", lower=0.0, strict_lower=True, doc="rotor inertia")
+    b: float = param(3.0e-6, symbol="b_m", unit="N m s/rad", source="vsaUT-II Table II (RE-40)",
+                     tag="paper", lower=0.0, doc="rotor viscous friction")
+    U_max: float = param(24.0, symbol="U_max", unit="V", source="vsaUT-II Table IV row 17", tag="paper",
+                         lower=0.0, strict_lower=True, doc="supply voltage limit")
+    I_max: float = param(12.0, symbol="I_max", unit="A", source="vsaUT-II Table IV row 19", tag="paper",
+                         lower=0.0, strict_lower=True, doc="amplifier current limit")
+
+
+def applied_voltage(p: DCMotorParams, u: np.ndarray, i: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Voltage the amplifier actually applies, ``u_eff`` (see module docstring). Shape ``(n,)``."""
+    emf = p.k_e * omega
+    u_hi = np.minimum(p.U_max, p.R * p.I_max + emf)
+    u_lo = np.maximum(-p.U_max, -p.R * p.I_max + emf)
+    return np.minimum(np.maximum(u, u_lo), u_hi)
+
+
+def current_derivative(p: DCMotorParams, u_eff: np.ndarray, i: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """``di/dt = (u_eff - k_e omega - R i) / L`` in A/s."""
+    return (u_eff - p.k_e * omega - p.R * i) / p.L
+
+
+def shaft_torque(p: DCMotorParams, i: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Electromagnetic torque minus rotor viscous friction, ``k_t i - b omega`` in N m."""
+    return p.k_t * i - p.b * omega
+
+
+def steady_state_current(p: DCMotorParams, u: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Current the circuit settles to at fixed speed and voltage: ``(u - k_e omega) / R``."""
+    return (u - p.k_e * omega) / p.R
+
+
+def no_load_speed(p: DCMotorParams, u: float, coulomb: float = 0.0) -> float:
+    """Speed at which ``k_t i = b omega + coulomb`` with ``i = (u - k_e omega)/R``.
+
+    Closed form of the motor's static no-load characteristic (rad/s).
+    """
+    return float((p.k_t * u / p.R - coulomb) / (p.b + p.k_t * p.k_e / p.R))
