@@ -136,11 +136,13 @@ class ParameterSet:
     # ------------------------------------------------------------------ batching
     @property
     def batch_size(self) -> int | None:
-        """``n`` if any field is batched, else ``None``."""
-        for name in self.field_names():
-            v = getattr(self, name)
+        """``n`` if any field (or nested set) is batched, else ``None``."""
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
             if isinstance(v, np.ndarray):
                 return int(v.shape[0])
+            if isinstance(v, ParameterSet) and v.batch_size is not None:
+                return v.batch_size
         return None
 
     def replace(self, **changes: Any) -> Self:

@@ -1,0 +1,393 @@
+"""The vsaUT-II lumped-parameter model (paper Sec. III), batched over a leading axis.
+
+Bodies and coordinates
+----------------------
+* pivot drive: RE-20 motor (current ``i1``, angle ``th1`` relative to the frame,
+  speed ``w1``) -> GP26B (n1 = 84) -> sun gear ``theta_s = th1 / n1`` -> pivot
+  ``q1 = D_p (1 - cos(gamma theta_s))``;
+* frame drive: RE-40 motor (``i2``, ``th2``, ``w2``) -> GP42C (n2 = 156) -> 22-tooth
+  pulley -> belt (compliance ``C_belt``) -> 32-tooth pulley on the frame ``q2``;
+* output link ``r``, coupled to the frame through the lever springs
+  (deflection ``phi = r - q2``).
+
+Equations of motion (``J1 = J_m1 + J_gb1 + I_sun,eq / n1^2``, ``J2 = J_m2 + J_gb2``)::
+
+    L1 di1/dt = u1 - k_e1 w1 - R1 i1
+    J1 dw1/dt = k_t1 i1 - b1 w1 - tau_in1(tau_L1, w1) - tau_stop1
+    L2 di2/dt = u2 - k_e2 w2 - R2 i2
+    J2 dw2/dt = k_t2 i2 - b2 w2 - tau_in2(tau_L2, w2)
+    I_ad q2'' = r_op F_b - tau_phi - c_ad q2' - tau_stop2
+    I_o  r''  = tau_phi - c_o r' + tau_ext
+
+with ``tau_L1 = -F_q1 dq1/dtheta_s`` (the lever's pivot force seen at the GP26B
+output), ``tau_L2 = r_ip F_b`` (belt load on the GP42C output), ``tau_in`` the
+gearbox input torque with efficiency losses (:mod:`vsa_gym.physics.gearbox`) and
+``tau_phi``, ``F_q1`` the lever forces (:mod:`vsa_gym.physics.lever`).
+
+State layout (``x`` has shape ``(n, 10)``; indices in :data:`STATE`)::
+
+    0 i1 [A]  1 th1 [rad]  2 w1 [rad/s]  3 i2 [A]  4 th2 [rad]  5 w2 [rad/s]
+    6 q2 [rad]  7 q2_dot [rad/s]  8 r [rad]  9 r_dot [rad/s]
+
+plus ``sum(ext.n_states)`` trailing columns for extension states.  The belt stretch
+is ``r_ip th2 / n2 - r_op q2``.
+
+Inputs: ``u`` of shape ``(n, 2)`` (pivot and frame motor voltages, V) and ``tau_ext``
+of shape ``(n,)`` (external torque on the output, N m).
+
+Power channels (:data:`POWER`, shape ``(n, 7)``): electrical power of each motor,
+external power on the output, and dissipation in copper, viscous friction,
+gearboxes and stops.  Integrated with the state, they satisfy
+``E_el1 + E_el2 + W_ext - D = Delta stored_energy`` to integrator accuracy.
+
+Extensions
+----------
+An :class:`Extension` adds forces at named ports without copying the model:
+``"belt_force"`` (N), ``"lever_torque"`` (N m, along phi), ``"pivot_force"`` (N, along q1),
+and the joint torques ``"motor1"``, ``"motor2"``, ``"frame"``, ``"output"`` (N m).  It may
+carry its own states.  Coulomb friction on a joint, backlash in the belt (as a
+correction to the linear belt force) and spring hysteresis all fit this shape; see
+:mod:`vsa_gym.vsaut2.extensions`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from typing import NamedTuple, Protocol
+
+import numpy as np
+
+from vsa_gym.physics import dc_motor, gearbox
+from vsa_gym.physics.belt import belt_force, belt_stiffness_at_frame, input_pulley_radius
+from vsa_gym.physics.integrate import rk4
+from vsa_gym.physics.lever import lever_forces, spring_stiffness
+from vsa_gym.physics.parameters import as_batch
+from vsa_gym.physics.pivot import gear_ratio, pivot_jacobian, pivot_position, sun_inertia
+from vsa_gym.vsaut2.params import VsaUT2Params
+
+STATE = {name: i for i, name in enumerate(("i1", "th1", "w1", "i2", "th2", "w2", "q2", "q2_dot", "r", "r_dot"))}
+N_STATES = len(STATE)
+STATE_UNITS = ("A", "rad", "rad/s", "A", "rad", "rad/s", "rad", "rad/s", "rad", "rad/s")
+POWER = {name: i for i, name in enumerate(
+    ("el_pivot", "el_frame", "ext", "copper", "viscous", "gearbox", "stops"))}
+N_POWER = len(POWER)
+PORTS = ("belt_force", "lever_torque", "pivot_force", "motor1", "motor2", "frame", "output")
+
+#: Penetration over which stop damping ramps in (rad at the pivot motor, rad at the frame) -- numerics.
+STOP_RAMP_MOTOR = 1e-2
+STOP_RAMP_FRAME = 1e-3
+
+#: Default RK4 substeps per 1 ms control step (h = 0.1 ms; see tests/vsaut2/test_integrator.py).
+SUBSTEPS_PER_MS = 10
+
+
+class _Derived(NamedTuple):
+    """Constants derived once per model from the parameters (kept off the hot path)."""
+
+    J1: float | np.ndarray  # pivot drive inertia at the motor (kg m^2)
+    J2: float | np.ndarray  # frame drive inertia at the motor (kg m^2)
+    r_ip: float | np.ndarray  # input pulley radius (m)
+    th1_max: float | np.ndarray  # soft end of the pivot stroke, motor angle (rad)
+
+
+class Kinematics(NamedTuple):
+    """Configuration-level quantities every force element and extension may use (all ``(n,)``)."""
+
+    q1: np.ndarray  # pivot position (m)
+    q1_dot: np.ndarray  # pivot speed (m/s)
+    phi: np.ndarray  # deflection r - q2 (rad)
+    phi_dot: np.ndarray
+    delta: np.ndarray  # belt stretch (m)
+    delta_dot: np.ndarray
+    w1: np.ndarray  # pivot motor speed (rad/s)
+    w2: np.ndarray  # frame motor speed (rad/s)
+    q2_dot: np.ndarray
+    r_dot: np.ndarray
+
+
+class ExtensionOutput(NamedTuple):
+    """What an extension returns: additive forces per port, its state derivative, dissipation."""
+
+    forces: Mapping[str, np.ndarray]
+    z_dot: np.ndarray  # (n, n_states)
+    p_diss: np.ndarray  # (n,) W, power it dissipates (>= 0 for passive effects)
+
+
+class Extension(Protocol):
+    """A model extension inserted at the ports listed in :data:`PORTS`."""
+
+    name: str
+    n_states: int
+
+    def initial_state(self, n: int) -> np.ndarray:
+        """Extension states at rest, shape ``(n, n_states)``."""
+        ...
+
+    def evaluate(self, params: VsaUT2Params, kin: Kinematics, z: np.ndarray) -> ExtensionOutput:
+        """Forces, ``dz/dt`` and dissipated power at configuration ``kin``."""
+        ...
+
+    def stored_energy(self, params: VsaUT2Params, kin: Kinematics, z: np.ndarray) -> np.ndarray:
+        """Energy the extension stores (J), ``(n,)``; zero for purely dissipative effects."""
+        ...
+
+
+@dataclasses.dataclass(frozen=True)
+class VsaUT2Model:
+    """The vsaUT-II: parameters plus an optional tuple of extensions.
+
+    ``params`` may be batched (fields of shape ``(n,)``); then ``x`` must have ``n`` rows.
+    """
+
+    params: VsaUT2Params = dataclasses.field(default_factory=VsaUT2Params)
+    extensions: tuple[Extension, ...] = ()
+
+    def __post_init__(self) -> None:
+        for ext in self.extensions:
+            if not isinstance(getattr(ext, "n_states", None), int) or ext.n_states < 0:
+                raise ValueError(f"extension {getattr(ext, 'name', ext)!r}: n_states must be an int >= 0")
+        p = self.params
+        g1 = p.pivot_gearbox
+        derived = _Derived(
+            J1=p.pivot_motor.J + g1.J_in + sun_inertia(p.pivot) / g1.n**2,
+            J2=p.frame_motor.J + p.frame_gearbox.J_in,
+            r_ip=input_pulley_radius(p.belt),
+            th1_max=p.theta1_max,
+        )
+        object.__setattr__(self, "_d", derived)
+
+    @property
+    def n_states(self) -> int:
+        return N_STATES + sum(e.n_states for e in self.extensions)
+
+    # ------------------------------------------------------------------ states
+    def initial_state(
+        self, n: int = 1, *, q1: float | np.ndarray | None = None, q2: float | np.ndarray = 0.0,
+        r: float | np.ndarray | None = None,
+    ) -> np.ndarray:
+        """A state at rest, shape ``(n, n_states)``.
+
+        ``q1`` (m) sets the pivot (default: the stiff end, 0); the frame motor angle
+        is set so that the belt is unstretched at frame angle ``q2``; ``r`` defaults
+        to ``q2`` (undeflected).
+        """
+        p = self.params
+        x = np.zeros((n, self.n_states))
+        if q1 is not None:
+            from vsa_gym.physics.pivot import sun_angle_for
+
+            x[:, STATE["th1"]] = p.pivot_gearbox.n * sun_angle_for(p.pivot, np.broadcast_to(q1, (n,)))
+        x[:, STATE["q2"]] = q2
+        x[:, STATE["th2"]] = np.asarray(q2) * p.frame_ratio
+        x[:, STATE["r"]] = q2 if r is None else r
+        col = N_STATES
+        for ext in self.extensions:
+            x[:, col:col + ext.n_states] = ext.initial_state(n)
+            col += ext.n_states
+        return x
+
+    def kinematics(self, x: np.ndarray) -> Kinematics:
+        p = self.params
+        n1, n2 = p.pivot_gearbox.n, p.frame_gearbox.n
+        th_s = x[..., 1] / n1
+        jac = pivot_jacobian(p.pivot, th_s)
+        r_ip = self._d.r_ip
+        return Kinematics(
+            q1=pivot_position(p.pivot, th_s),
+            q1_dot=jac * x[..., 2] / n1,
+            phi=x[..., 8] - x[..., 6],
+            phi_dot=x[..., 9] - x[..., 7],
+            delta=r_ip * x[..., 4] / n2 - p.belt.r_op * x[..., 6],
+            delta_dot=r_ip * x[..., 5] / n2 - p.belt.r_op * x[..., 7],
+            w1=x[..., 2],
+            w2=x[..., 5],
+            q2_dot=x[..., 7],
+            r_dot=x[..., 9],
+        )
+
+    # ------------------------------------------------------------------ dynamics
+    def rhs(self, x: np.ndarray, u: np.ndarray, tau_ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Time derivative of ``x`` and the power channels, for held inputs. Shapes as in the module doc."""
+        p = self.params
+        m1, m2, g1, g2 = p.pivot_motor, p.frame_motor, p.pivot_gearbox, p.frame_gearbox
+        i1, th1, w1, i2, w2 = x[..., 0], x[..., 1], x[..., 2], x[..., 3], x[..., 5]
+        q2, q2d, rd = x[..., 6], x[..., 7], x[..., 9]
+        kin = self.kinematics(x)
+        th_s = th1 / g1.n
+        jac = pivot_jacobian(p.pivot, th_s)
+
+        lev = lever_forces(p.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot)
+        F_b = belt_force(p.belt, kin.delta)
+        ports: dict[str, np.ndarray] = {}
+        p_ext_diss = 0.0 * i1
+        dz_parts = []
+        col = N_STATES
+        for ext in self.extensions:
+            z = x[..., col:col + ext.n_states]
+            col += ext.n_states
+            out = ext.evaluate(p, kin, z)
+            for port, f in out.forces.items():
+                if port not in PORTS:
+                    raise ValueError(f"extension {ext.name!r} uses unknown port {port!r}; ports: {PORTS}")
+                ports[port] = ports[port] + f if port in ports else f
+            dz_parts.append(out.z_dot)
+            p_ext_diss = p_ext_diss + out.p_diss
+        zero = 0.0
+        F_b = F_b + ports.get("belt_force", zero)
+        tau_phi = lev.tau_phi + ports.get("lever_torque", zero)
+        F_q1 = lev.F_q1 + ports.get("pivot_force", zero)
+
+        # motors: amplifier limits, circuits
+        u1 = dc_motor.applied_voltage(m1, u[..., 0], i1, w1)
+        u2 = dc_motor.applied_voltage(m2, u[..., 1], i2, w2)
+        di1 = dc_motor.current_derivative(m1, u1, i1, w1)
+        di2 = dc_motor.current_derivative(m2, u2, i2, w2)
+
+        # gearboxes
+        tau_L1 = -F_q1 * jac
+        tau_in1, p_gb1 = gearbox.input_torque(g1, tau_L1, w1)
+        d = self._d
+        tau_in2, p_gb2 = gearbox.input_torque(g2, d.r_ip * F_b, w2)
+
+        # pivot stroke stop on the motor shaft: th1 in [0, theta1_max]
+        pen_lo = np.minimum(th1, 0.0)
+        pen_hi = np.maximum(th1 - d.th1_max, 0.0)
+        pen1 = pen_lo + pen_hi
+        ramp1 = np.minimum(np.abs(pen1) / STOP_RAMP_MOTOR, 1.0)
+        tau_s1 = p.K_s1 * pen1 + ramp1 * p.D_s1 * w1
+        # frame end stops
+        pen2 = np.maximum(np.abs(q2) - p.q2_max, 0.0) * np.sign(q2)
+        ramp2 = np.minimum(np.abs(pen2) / STOP_RAMP_FRAME, 1.0)
+        tau_s2 = p.K_q2 * pen2 + ramp2 * p.D_q2 * q2d
+
+        dw1 = (dc_motor.shaft_torque(m1, i1, w1) - tau_in1 - tau_s1 + ports.get("motor1", zero)) / d.J1
+        dw2 = (dc_motor.shaft_torque(m2, i2, w2) - tau_in2 + ports.get("motor2", zero)) / d.J2
+        dq2d = (p.belt.r_op * F_b - tau_phi - p.c_ad * q2d - tau_s2 + ports.get("frame", zero)) / p.I_ad
+        drd = (tau_phi - p.c_o * rd + tau_ext + ports.get("output", zero)) / p.I_o
+
+        dx = np.empty_like(x)
+        dx[..., 0] = di1
+        dx[..., 1] = w1
+        dx[..., 2] = dw1
+        dx[..., 3] = di2
+        dx[..., 4] = w2
+        dx[..., 5] = dw2
+        dx[..., 6] = q2d
+        dx[..., 7] = dq2d
+        dx[..., 8] = rd
+        dx[..., 9] = drd
+        if dz_parts:
+            dx[..., N_STATES:] = np.concatenate(dz_parts, axis=-1)
+
+        pw = np.empty((*x.shape[:-1], N_POWER))
+        pw[..., 0] = u1 * i1
+        pw[..., 1] = u2 * i2
+        pw[..., 2] = tau_ext * rd
+        pw[..., 3] = m1.R * i1**2 + m2.R * i2**2
+        pw[..., 4] = m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2
+        pw[..., 5] = p_gb1 + p_gb2
+        pw[..., 6] = lev.p_diss + ramp1 * p.D_s1 * w1**2 + ramp2 * p.D_q2 * q2d**2 + p_ext_diss
+        return dx, pw
+
+    def step(
+        self, x: np.ndarray, u: np.ndarray, tau_ext: np.ndarray | float = 0.0, dt: float = 1e-3,
+        n_sub: int | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Advance by ``dt`` with inputs held; returns ``(x_new, energy_channels)``.
+
+        Inputs are validated: ``u`` must be finite with shape ``(n, 2)``, ``tau_ext``
+        finite with shape ``(n,)`` (or a scalar).  ``ValueError`` names the offender.
+        """
+        x = np.asarray(x, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != self.n_states:
+            raise ValueError(f"state x: expected shape (n, {self.n_states}), got {x.shape}")
+        n = x.shape[0]
+        bs = self.params.batch_size
+        if bs is not None and bs != n:
+            raise ValueError(f"state x has {n} rows but the parameter batch has {bs}")
+        u = as_batch("u (motor voltages [pivot, frame])", u, n, 2)
+        tau = as_batch("tau_ext", tau_ext, n)
+        if not np.isfinite(dt) or dt <= 0:
+            raise ValueError(f"dt must be a positive finite time step, got {dt}")
+        if n_sub is None:
+            n_sub = max(1, int(np.ceil(dt / 1e-3 * SUBSTEPS_PER_MS)))
+        x_new, energy = rk4(lambda y: self.rhs(y, u, tau), x, dt, n_sub)
+        if not np.all(np.isfinite(x_new)):
+            raise FloatingPointError("vsaUT-II integration produced a non-finite state; reduce dt")
+        return x_new, energy
+
+    def simulate(
+        self, x0: np.ndarray, u: np.ndarray, tau_ext: np.ndarray | None = None, dt: float = 1e-3,
+        n_sub: int | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Roll out ``T`` steps. ``u``: ``(T, n, 2)``; ``tau_ext``: ``(T, n)``.
+
+        Returns states ``(T + 1, n, n_states)`` and cumulative energy channels ``(T + 1, n, 7)``.
+        """
+        u = np.asarray(u, dtype=np.float64)
+        if u.ndim != 3 or u.shape[2] != 2:
+            raise ValueError(f"u: expected shape (T, n, 2), got {u.shape}")
+        T = u.shape[0]
+        tau = np.zeros(u.shape[:2]) if tau_ext is None else np.asarray(tau_ext, dtype=np.float64)
+        if tau.shape != u.shape[:2]:
+            raise ValueError(f"tau_ext: expected shape {u.shape[:2]}, got {tau.shape}")
+        xs = np.empty((T + 1, *np.shape(x0)))
+        es = np.zeros((T + 1, np.shape(x0)[0], N_POWER))
+        xs[0] = x0
+        x = np.asarray(x0, dtype=np.float64)
+        for k in range(T):
+            x, e = self.step(x, u[k], tau[k], dt, n_sub)
+            xs[k + 1] = x
+            es[k + 1] = es[k] + e
+        return xs, es
+
+    # ------------------------------------------------------------------ observables
+    def stored_energy(self, x: np.ndarray) -> np.ndarray:
+        """Magnetic + kinetic + elastic energy (J), shape ``(n,)``."""
+        p = self.params
+        m1, m2 = p.pivot_motor, p.frame_motor
+        kin = self.kinematics(x)
+        d = self._d
+        e = 0.5 * (m1.L * x[..., 0] ** 2 + m2.L * x[..., 3] ** 2 + d.J1 * x[..., 2] ** 2 + d.J2 * x[..., 5] ** 2
+                   + p.I_ad * x[..., 7] ** 2 + p.I_o * x[..., 9] ** 2)
+        e = e + lever_forces(p.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot).energy
+        e = e + 0.5 * p.belt.C_belt * kin.delta**2
+        th1 = x[..., 1]
+        pen1 = np.minimum(th1, 0.0) + np.maximum(th1 - d.th1_max, 0.0)
+        pen2 = np.maximum(np.abs(x[..., 6]) - p.q2_max, 0.0)
+        e = e + 0.5 * p.K_s1 * pen1**2 + 0.5 * p.K_q2 * pen2**2
+        col = N_STATES
+        for ext in self.extensions:
+            e = e + ext.stored_energy(p, kin, x[..., col:col + ext.n_states])
+            col += ext.n_states
+        return e
+
+    def pivot_position(self, x: np.ndarray) -> np.ndarray:
+        """``q1`` (m), shape ``(n,)``."""
+        return pivot_position(self.params.pivot, x[..., 1] / self.params.pivot_gearbox.n)
+
+    def stiffness(self, x: np.ndarray, with_belt: bool = True) -> np.ndarray:
+        """Output stiffness (N m/rad): eq. (6) at the current deflection, in series with the belt."""
+        p = self.params
+        K_s = spring_stiffness(p.lever, self.pivot_position(x), x[..., 8] - x[..., 6])
+        if not with_belt:
+            return K_s
+        K_b = belt_stiffness_at_frame(p.belt)
+        return K_s * K_b / (K_s + K_b)
+
+    def output_torque(self, x: np.ndarray) -> np.ndarray:
+        """Elastic torque the lever applies to the output (N m), ``(n,)``."""
+        kin = self.kinematics(x)
+        return lever_forces(self.params.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot).tau_phi
+
+
+def pivot_gamma(params: VsaUT2Params) -> float | np.ndarray:
+    """Carrier/sun ratio of eq. (1) for these parameters."""
+    return gear_ratio(params.pivot)
+
+
+def stack_models(models: Sequence[VsaUT2Model]) -> VsaUT2Model:
+    """One batched model from ``n`` single ones (same extensions required)."""
+    exts = models[0].extensions
+    return VsaUT2Model(VsaUT2Params.stack([m.params for m in models]), exts)
