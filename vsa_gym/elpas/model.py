@@ -1,0 +1,505 @@
+"""The eLPAS model in two configurations: the hydropulse rig and the quarter car.
+
+Drive (eqs. 1-7): motor current ``i`` through the amplifier limits, reductor
+``omega_m = N dgamma/dt``, LuGre friction at the motor shaft, total inertia
+``J_r`` about gamma::
+
+    L di/dt        = u_eff - K_E omega_m - R i                       (eq. 1, 2)
+    J_r d2gamma/dt2 = N (K_T i - b omega_m - M_fric) + T_gamma + T_stop + T_ext   (eq. 3, 4)
+    dz/dt          = omega_m - |omega_m| z / beta(omega_m)           (eq. 6)
+
+``T_gamma`` is the spring moment on the arm (:mod:`vsa_gym.elpas.cone`),
+``T_stop`` the gamma end stops (Hunt-Crossley, beyond ``gamma_max``) and
+``T_ext`` the sum of the extensions' moments.
+
+**Rig** (paper Sec. 5, hydropulse): ``alpha(t)`` is imposed, piecewise linear
+between control steps; the state carries ``alpha`` and the rhs input is
+``dalpha/dt``.  :func:`step_rig` takes the voltage and ``alpha`` at the *end* of
+the step.
+
+**Vehicle** (quarter car / cabin corner): body ``y_s`` (up, from the static
+equilibrium), wheel at the wishbone tip ``y_u = y_s + l sin(alpha)``, tyre force
+``F_t = k_t max(y_r - y_u + delta_0, 0)`` with ``delta_0 = (m_s + m_u) g / k_t``.
+With ``F_apart = F_act + F_ext + c_p l cos(alpha) dalpha/dt`` (pushing body and
+wheel apart) and the wishbone inertia ``J_w``, Lagrange's equations in
+``(y_s, alpha)`` read::
+
+    (m_s+m_u) y_s'' + m_u l c alpha''               = F_t - (m_s+m_u) g + m_u l s alpha'^2
+    m_u l c y_s''   + (m_u l^2 c^2 + J_w) alpha''   = l c (F_t - m_u g - F_apart) + T_bump
+                                                      + m_u l^2 c s alpha'^2
+    (c = cos alpha, s = sin alpha).
+
+The road height is piecewise linear between control steps: the state carries
+``y_r``, the rhs input is ``dy_r/dt``; :func:`step_vehicle` takes the road height
+at the end of the step.  The gyroscopic coupling of the drive (mounted on the
+wishbone) with ``alpha`` is neglected, as in the paper's force controller.
+
+State layout (columns of ``x``, shape ``(n, n_states)``): see the ``GAMMA`` ...
+``Y_R`` constants; extension states follow the base states.  Power channels
+(columns of the ``power`` / ``energy`` arrays): ``P_EL`` ... ``P_OUT``, with the
+balance ``E_el = dE_stored + E_res + E_fric + E_stop + E_damper + E_ext + E_out``
+(:func:`stored_energy`).  ``E_fric`` includes the small elastic bristle energy.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from vsa_gym.elpas.cone import check_angles, effective_stiffness_unchecked, spring_unchecked
+from vsa_gym.elpas.extensions import (
+    Extension,
+    ExtensionContext,
+    check_extensions,
+    total_states,
+)
+from vsa_gym.elpas.params import GRAVITY, ElpasParams
+from vsa_gym.physics.dc_motor import applied_voltage, current_derivative, shaft_torque
+from vsa_gym.physics.friction import (
+    bristle_derivative,
+    bristle_rate,
+    exponential_rk4,
+    lugre_moment,
+)
+from vsa_gym.physics.parameters import ParameterSet, as_batch
+
+# ----------------------------------------------------------------------------- state layout
+GAMMA = 0  # arm angle gamma (rad)
+OMEGA = 1  # dgamma/dt (rad/s); motor speed is N * OMEGA
+CURRENT = 2  # motor current i (A)
+BRISTLE = 3  # LuGre bristle deflection z at the motor (rad)
+ALPHA = 4  # wishbone angle alpha (rad); > 0 compresses the suspension
+N_RIG = 5
+ALPHA_DOT = 5  # dalpha/dt (rad/s), vehicle only
+Y_S = 6  # body (sprung mass) height from static equilibrium (m)
+V_S = 7  # body velocity (m/s)
+Y_R = 8  # road height under the tyre (m)
+N_VEHICLE = 9
+
+RIG_STATE_NAMES = ("gamma", "omega", "current", "bristle", "alpha")
+VEHICLE_STATE_NAMES = (*RIG_STATE_NAMES, "alpha_dot", "y_s", "v_s", "y_r")
+
+# ----------------------------------------------------------------------------- inputs
+IN_VOLTAGE = 0  # commanded motor voltage u (V)
+IN_ALPHA = 1  # rig: step -> alpha at the end of the step (rad); rhs -> dalpha/dt (rad/s)
+IN_ROAD = 1  # vehicle: step -> road height at the end of the step (m); rhs -> dy_r/dt (m/s)
+
+# ----------------------------------------------------------------------------- power channels
+P_EL = 0  # electrical power from the supply, u_eff i (W)
+P_RES = 1  # copper loss R i^2
+P_FRIC = 2  # motor + reductor friction (M_fric + b omega_m) omega_m
+P_STOP = 3  # dissipation in the gamma end stops (and the wishbone bump stops)
+P_DAMPER = 4  # parallel damper c_p (l cos(alpha) dalpha/dt)^2 (vehicle)
+P_EXT = 5  # power absorbed by the extensions
+P_OUT = 6  # rig: work done on the hydropulse, F_apart dx_ext/dt; vehicle: on the road, -F_t dy_r/dt
+N_POWER = 7
+POWER_NAMES = ("electrical", "resistive", "friction", "end_stop", "damper", "extensions", "external")
+
+Extensions = tuple[Extension, ...]
+
+
+class _Actuator(NamedTuple):
+    dx: np.ndarray  # (n, N_RIG) derivatives of the drive states (alpha column left 0)
+    ext_dx: np.ndarray  # (n, n_ext_states)
+    F_apart: np.ndarray  # F_act + extension forces (N)
+    power: np.ndarray  # (n, N_POWER) (P_OUT, P_DAMPER left 0)
+
+
+def _end_stop(q: np.ndarray, qd: np.ndarray, q_max: np.ndarray | float, k: np.ndarray | float,
+              d: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Hunt-Crossley end stops at ``+-q_max``: (moment, dissipated power, stored energy)."""
+    over = q - q_max
+    under = -q_max - q
+    sgn = np.where(over > 0.0, 1.0, np.where(under > 0.0, -1.0, 0.0))
+    pen = np.maximum(over, 0.0) + np.maximum(under, 0.0)
+    pen_rate = sgn * qd
+    contact = np.maximum(k * pen * (1.0 + d * pen_rate), 0.0)
+    moment = -sgn * contact
+    dissipated = contact * pen_rate - k * pen * pen_rate
+    return moment, dissipated, 0.5 * k * pen**2
+
+
+def _actuator(p: ElpasParams, x: np.ndarray, u: np.ndarray, alpha_dot: np.ndarray,
+              extensions: Extensions, n_base: int) -> _Actuator:
+    m, fr, dr, c = p.motor, p.friction, p.drive, p.cone
+    gamma, omega, i, z, alpha = (x[:, k] for k in (GAMMA, OMEGA, CURRENT, BRISTLE, ALPHA))
+    w_m = dr.N * omega
+    u_eff = applied_voltage(m, u, i, w_m)
+    di = current_derivative(m, u_eff, i, w_m)
+    zdot = bristle_derivative(fr, w_m, z)
+    M_fric = lugre_moment(fr, w_m, z, zdot)
+    tau_motor = shaft_torque(m, i, w_m) - M_fric
+    sp = spring_unchecked(c, gamma, alpha)
+    x_ext_rate = -c.l * np.cos(alpha) * alpha_dot
+    if np.any(np.abs(gamma) > c.gamma_max):
+        stop_M, stop_diss, _ = _end_stop(gamma, omega, c.gamma_max, dr.k_stop, dr.d_stop)
+    else:
+        stop_M = stop_diss = 0.0
+
+    n = x.shape[0]
+    tau_ext = np.zeros(n)
+    f_ext = np.zeros(n)
+    ext_dx = np.zeros((n, x.shape[1] - n_base))
+    if extensions:
+        ctx = ExtensionContext(p, gamma, omega, alpha, alpha_dot, x_ext_rate, sp.F_act, sp.T_gamma)
+        col = n_base
+        for e in extensions:
+            k = int(e.n_states)
+            out = e.evaluate(ctx, x[:, col:col + k])
+            tau_ext = tau_ext + out.torque_gamma
+            f_ext = f_ext + out.force_act
+            ext_dx[:, col - n_base:col - n_base + k] = out.state_derivative
+            col += k
+
+    domega = (dr.N * tau_motor + sp.T_gamma + stop_M + tau_ext) / dr.J_r
+    dx = np.zeros((n, N_RIG))
+    dx[:, GAMMA] = omega
+    dx[:, OMEGA] = domega
+    dx[:, CURRENT] = di
+    dx[:, BRISTLE] = zdot
+    power = np.zeros((n, N_POWER))
+    power[:, P_EL] = u_eff * i
+    power[:, P_RES] = m.R * i**2
+    power[:, P_FRIC] = (M_fric + m.b * w_m) * w_m
+    power[:, P_STOP] = stop_diss
+    power[:, P_EXT] = -(tau_ext * omega + f_ext * x_ext_rate)
+    return _Actuator(dx, ext_dx, sp.F_act + f_ext, power)
+
+
+def rhs_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
+            extensions: Extensions = ()) -> tuple[np.ndarray, np.ndarray]:
+    """Right-hand side of the rig (imposed alpha).
+
+    Args:
+        p: parameters (floats or ``(n,)`` arrays).
+        x: state ``(n, N_RIG + n_ext)``.
+        inputs: ``(n, 2)``: voltage (V), ``dalpha/dt`` (rad/s).
+        extensions: model extensions (their states follow the base states).
+
+    Returns:
+        ``(dxdt, power)`` of shapes ``(n, N_RIG + n_ext)`` and ``(n, N_POWER)``.
+    """
+    alpha_dot = inputs[:, IN_ALPHA]
+    a = _actuator(p, x, inputs[:, IN_VOLTAGE], alpha_dot, extensions, N_RIG)
+    dx = np.empty_like(x)
+    dx[:, :N_RIG] = a.dx
+    dx[:, ALPHA] = alpha_dot
+    dx[:, N_RIG:] = a.ext_dx
+    power = a.power
+    power[:, P_OUT] = a.F_apart * (-p.cone.l * np.cos(x[:, ALPHA]) * alpha_dot)
+    return dx, power
+
+
+def tyre_force_unchecked(p: ElpasParams, x: np.ndarray) -> np.ndarray:
+    """Tyre force ``k_t max(y_r - y_u + delta_0, 0)`` (N, >= 0; 0 means lift-off)."""
+    car = p.car
+    y_u = x[:, Y_S] + p.cone.l * np.sin(x[:, ALPHA])
+    delta0 = (car.m_s + car.m_u) * GRAVITY / car.k_t
+    return car.k_t * np.maximum(x[:, Y_R] - y_u + delta0, 0.0)
+
+
+def rhs_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
+                extensions: Extensions = ()) -> tuple[np.ndarray, np.ndarray]:
+    """Right-hand side of the quarter car carried by the eLPAS.
+
+    Args:
+        p: parameters (floats or ``(n,)`` arrays).
+        x: state ``(n, N_VEHICLE + n_ext)``.
+        inputs: ``(n, 2)``: voltage (V), road rate ``dy_r/dt`` (m/s).
+        extensions: model extensions.
+
+    Returns:
+        ``(dxdt, power)`` of shapes ``(n, N_VEHICLE + n_ext)`` and ``(n, N_POWER)``.
+    """
+    car, l = p.car, p.cone.l
+    alpha, alpha_dot = x[:, ALPHA], x[:, ALPHA_DOT]
+    a = _actuator(p, x, inputs[:, IN_VOLTAGE], alpha_dot, extensions, N_VEHICLE)
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    travel_rate = l * ca * alpha_dot  # d(l sin alpha)/dt, compression rate
+    F_damp = car.c_p * travel_rate
+    F_t = tyre_force_unchecked(p, x)
+    if np.any(np.abs(alpha) > p.cone.alpha_max):
+        bump_M, bump_diss, _ = _end_stop(alpha, alpha_dot, p.cone.alpha_max, car.k_bump, car.d_bump)
+    else:
+        bump_M = bump_diss = 0.0
+    m_tot = car.m_s + car.m_u
+    Q_y = F_t - m_tot * GRAVITY + car.m_u * l * sa * alpha_dot**2
+    Q_a = l * ca * (F_t - car.m_u * GRAVITY - a.F_apart - F_damp) + bump_M + car.m_u * l**2 * ca * sa * alpha_dot**2
+    M11 = m_tot
+    M12 = car.m_u * l * ca
+    M22 = car.m_u * (l * ca) ** 2 + car.J_w
+    det = M11 * M22 - M12**2
+    acc_s = (M22 * Q_y - M12 * Q_a) / det
+    acc_a = (M11 * Q_a - M12 * Q_y) / det
+
+    dx = np.empty_like(x)
+    dx[:, :N_RIG] = a.dx
+    dx[:, ALPHA] = alpha_dot
+    dx[:, ALPHA_DOT] = acc_a
+    dx[:, Y_S] = x[:, V_S]
+    dx[:, V_S] = acc_s
+    dx[:, Y_R] = inputs[:, IN_ROAD]
+    dx[:, N_VEHICLE:] = a.ext_dx
+    power = a.power
+    power[:, P_DAMPER] = F_damp * travel_rate
+    power[:, P_STOP] += bump_diss
+    power[:, P_OUT] = -F_t * inputs[:, IN_ROAD]
+    return dx, power
+
+
+# ----------------------------------------------------------------------------- stepping
+def _check_state(name: str, x: np.ndarray, width: int) -> np.ndarray:
+    return as_batch(name, x, width=width)
+
+
+def _n_sub(p: ElpasParams) -> int:
+    return int(round(float(p.numerics.n_sub)))
+
+
+REVERSAL_REFINE = 4
+"""Substep refinement for the rows whose motor speed changes sign within a control step."""
+
+RhsFn = Callable[[ElpasParams, np.ndarray, np.ndarray, Extensions], tuple[np.ndarray, np.ndarray]]
+
+
+def take_rows(p: ElpasParams, rows: np.ndarray) -> ElpasParams:
+    """The parameter sets of the given batch rows (scalars are shared)."""
+
+    def sub(ps: ParameterSet) -> ParameterSet:
+        changes: dict[str, object] = {}
+        for f in dataclasses.fields(ps):
+            v = getattr(ps, f.name)
+            if isinstance(v, ParameterSet):
+                changes[f.name] = sub(v)
+            elif isinstance(v, np.ndarray):
+                changes[f.name] = v[rows]
+        return dataclasses.replace(ps, **changes) if changes else ps
+
+    return sub(p)  # type: ignore[return-value]
+
+
+def _integrate(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarray,
+               extensions: Extensions, n_sub: int) -> tuple[np.ndarray, np.ndarray]:
+    """One control step with the LuGre-aware integrator.
+
+    The bristle damping ``s1 dz/dt`` couples the stiff bristle mode into the
+    speed: along that mode ``q = J_r omega + N s1 z`` stays constant.  The step
+    therefore integrates ``(q, z)`` instead of ``(omega, z)`` -- ``dq/dt`` contains
+    no ``dz/dt`` -- and treats the remaining stiff decay ``-lambda z`` of the
+    bristle exactly (:func:`exponential_rk4`, ``lambda = |omega_m| s0 / g``
+    frozen per substep).  Stable for any speed; accuracy is checked against Radau.
+    """
+    c = p.drive.N * p.friction.s1
+    J = p.drive.J_r
+
+    def rhs_q(yy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        xx = yy.copy()
+        xx[:, OMEGA] = (yy[:, OMEGA] - c * yy[:, BRISTLE]) / J
+        dx, power = rhs_fn(p, xx, rate_inputs, extensions)
+        dx[:, OMEGA] = J * dx[:, OMEGA] + c * dx[:, BRISTLE]
+        return dx, power
+
+    def rates(yy: np.ndarray) -> np.ndarray:
+        w = (yy[:, OMEGA] - c * yy[:, BRISTLE]) / J
+        return bristle_rate(p.friction, p.drive.N * w)[:, None]
+
+    y = x.copy()
+    y[:, OMEGA] = J * x[:, OMEGA] + c * x[:, BRISTLE]
+    y_new, energy = exponential_rk4(rhs_q, y, float(p.numerics.dt), n_sub, (BRISTLE,), rates)
+    x_new = y_new
+    x_new[:, OMEGA] = (y_new[:, OMEGA] - c * y_new[:, BRISTLE]) / J
+    return x_new, energy
+
+
+def _advance(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarray,
+             extensions: Extensions) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_integrate` with ``n_sub`` substeps; rows whose speed reverses are redone finer.
+
+    ``|omega_m|`` in the bristle equation has a kink at zero speed; a substep
+    containing the reversal loses two orders of accuracy.  Those rows (sign
+    change of ``omega`` over the step) are recomputed with ``REVERSAL_REFINE``
+    times more substeps, which keeps the Radau error below 1e-3 at little cost.
+    """
+    n_sub = _n_sub(p)
+    x_new, energy = _integrate(p, rhs_fn, x, rate_inputs, extensions, n_sub)
+    rev = np.sign(x[:, OMEGA]) != np.sign(x_new[:, OMEGA])
+    if np.any(rev):
+        rows = np.flatnonzero(rev)
+        p_rows = take_rows(p, rows) if p.batch_size is not None else p
+        x_r, e_r = _integrate(p_rows, rhs_fn, x[rows], rate_inputs[rows], extensions, n_sub * REVERSAL_REFINE)
+        x_new[rows] = x_r
+        energy[rows] = e_r
+    return x_new, energy
+
+
+def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
+             extensions: Extensions = ()) -> tuple[np.ndarray, np.ndarray]:
+    """Advance the rig by one control step ``p.numerics.dt``.
+
+    Args:
+        x: state ``(n, N_RIG + n_ext)``.
+        inputs: ``(n, 2)``: voltage (V, held), ``alpha`` at the end of the step
+            (rad, within ``+-alpha_max``; alpha moves linearly over the step).
+
+    Returns:
+        ``(x_new, energy)``: new state and the energy of every power channel over
+        the step (J), shape ``(n, N_POWER)``.
+
+    Raises:
+        ValueError: wrong shapes, non-finite voltage/alpha/state, alpha out of range.
+    """
+    check_extensions(extensions)
+    x = _check_state("x (rig state)", x, N_RIG + total_states(extensions))
+    n = x.shape[0]
+    inputs = _check_inputs(inputs, n, ("voltage", "alpha"))
+    check_angles(p.cone, alpha=inputs[:, IN_ALPHA])
+    dt = float(p.numerics.dt)
+    rates_in = inputs.copy()
+    rates_in[:, IN_ALPHA] = (inputs[:, IN_ALPHA] - x[:, ALPHA]) / dt
+
+    x_new, energy = _advance(p, rhs_rig, x, rates_in, extensions)
+    x_new[:, ALPHA] = inputs[:, IN_ALPHA]
+    return x_new, energy
+
+
+def step_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
+                 extensions: Extensions = ()) -> tuple[np.ndarray, np.ndarray]:
+    """Advance the quarter car by one control step ``p.numerics.dt``.
+
+    Args:
+        x: state ``(n, N_VEHICLE + n_ext)``.
+        inputs: ``(n, 2)``: voltage (V, held), road height at the end of the step
+            (m; the road moves linearly over the step).
+
+    Returns:
+        ``(x_new, energy)`` as :func:`step_rig`.
+    """
+    check_extensions(extensions)
+    x = _check_state("x (vehicle state)", x, N_VEHICLE + total_states(extensions))
+    n = x.shape[0]
+    inputs = _check_inputs(inputs, n, ("voltage", "road height"))
+    dt = float(p.numerics.dt)
+    rates_in = inputs.copy()
+    rates_in[:, IN_ROAD] = (inputs[:, IN_ROAD] - x[:, Y_R]) / dt
+
+    x_new, energy = _advance(p, rhs_vehicle, x, rates_in, extensions)
+    x_new[:, Y_R] = inputs[:, IN_ROAD]
+    if not np.all(np.isfinite(x_new)):
+        raise ValueError("step_vehicle: the state became non-finite (check inputs and parameters)")
+    return x_new, energy
+
+
+def _check_inputs(inputs: np.ndarray, n: int, names: Sequence[str]) -> np.ndarray:
+    arr = np.asarray(inputs, dtype=np.float64)
+    if arr.ndim == 1 and arr.shape[0] == len(names) and n == 1:
+        arr = arr[None, :]
+    if arr.shape != (n, len(names)):
+        raise ValueError(f"inputs: expected shape ({n}, {len(names)}) = ({', '.join(names)}), got {arr.shape}")
+    for k, name in enumerate(names):
+        bad = ~np.isfinite(arr[:, k])
+        if np.any(bad):
+            row = int(np.argmax(bad))
+            raise ValueError(f"inputs: {name} is not finite ({arr[row, k]!r}) in row {row}")
+    return arr
+
+
+# ----------------------------------------------------------------------------- initial states
+def initial_state_rig(p: ElpasParams, n: int, gamma: float | np.ndarray = 0.0, alpha: float | np.ndarray = 0.0,
+                      extensions: Extensions = ()) -> np.ndarray:
+    """Rig at rest at ``(gamma, alpha)``, zero current and bristle deflection: ``(n, N_RIG + n_ext)``."""
+    check_angles(p.cone, gamma, alpha)
+    x = np.zeros((n, N_RIG))
+    x[:, GAMMA] = gamma
+    x[:, ALPHA] = alpha
+    ext = [e.initial_state(n) for e in extensions]
+    return np.concatenate([x, *ext], axis=1) if ext else x
+
+
+def equilibrium_alpha(p: ElpasParams, gamma: float | np.ndarray = 0.0) -> np.ndarray:
+    """Wishbone angle where ``F_act(gamma, alpha) = m_s g`` (static equilibrium), shape ``(n,)`` or ``()``.
+
+    Newton iteration on the analytic effective stiffness; raises ``ValueError``
+    if no solution lies within ``+-alpha_max``.
+    """
+    c = p.cone
+    g = np.asarray(gamma, dtype=np.float64)
+    target = p.car.m_s * GRAVITY
+    alpha = np.zeros(np.broadcast(g, np.asarray(target), np.asarray(c.l)).shape)
+    for _ in range(30):
+        f = spring_unchecked(c, g, alpha).F_act - target
+        k = effective_stiffness_unchecked(c, g, alpha) * c.l * np.cos(alpha)
+        alpha = alpha - f / k
+    if not np.all(np.isfinite(alpha)) or np.any(np.abs(alpha) > c.alpha_max):
+        raise ValueError(f"equilibrium_alpha: no static equilibrium within alpha_max for gamma={gamma!r}")
+    return alpha
+
+
+def initial_state_vehicle(p: ElpasParams, n: int, gamma: float | np.ndarray = 0.0,
+                          extensions: Extensions = ()) -> np.ndarray:
+    """Quarter car at static equilibrium at ``gamma`` on a road at height 0: ``(n, N_VEHICLE + n_ext)``."""
+    check_angles(p.cone, gamma=gamma)
+    alpha = equilibrium_alpha(p, gamma)
+    x = np.zeros((n, N_VEHICLE))
+    x[:, GAMMA] = gamma
+    x[:, ALPHA] = alpha
+    x[:, Y_S] = -p.cone.l * np.sin(alpha)
+    # static friction moment balances T_gamma(gamma, alpha_eq) (tiny): start with relaxed bristles
+    ext = [e.initial_state(n) for e in extensions]
+    return np.concatenate([x, *ext], axis=1) if ext else x
+
+
+# ----------------------------------------------------------------------------- observables
+def actuator_force_of(p: ElpasParams, x: np.ndarray) -> np.ndarray:
+    """Nominal actuator force ``F_act(gamma, alpha)`` (N), shape ``(n,)`` (no extensions)."""
+    return spring_unchecked(p.cone, x[:, GAMMA], x[:, ALPHA]).F_act
+
+
+def disturbance_moment_of(p: ElpasParams, x: np.ndarray) -> np.ndarray:
+    """Spring moment on the arm ``T_gamma`` (N m), shape ``(n,)``."""
+    return spring_unchecked(p.cone, x[:, GAMMA], x[:, ALPHA]).T_gamma
+
+
+def motor_speed(p: ElpasParams, x: np.ndarray) -> np.ndarray:
+    """Motor speed ``omega_m = N dgamma/dt`` (rad/s)."""
+    return p.drive.N * x[:, OMEGA]
+
+
+def friction_moment(p: ElpasParams, x: np.ndarray) -> np.ndarray:
+    """LuGre friction moment at the motor (N m), eq. 5."""
+    w_m = motor_speed(p, x)
+    zdot = bristle_derivative(p.friction, w_m, x[:, BRISTLE])
+    return lugre_moment(p.friction, w_m, x[:, BRISTLE], zdot)
+
+
+def electrical_power(p: ElpasParams, x: np.ndarray, voltage: np.ndarray) -> np.ndarray:
+    """Power drawn from the supply ``u_eff i`` (W) for the commanded voltage."""
+    u_eff = applied_voltage(p.motor, np.asarray(voltage, dtype=np.float64), x[:, CURRENT], motor_speed(p, x))
+    return u_eff * x[:, CURRENT]
+
+
+def suspension_travel(p: ElpasParams, x: np.ndarray) -> np.ndarray:
+    """Compression ``l sin(alpha)`` (m)."""
+    return p.cone.l * np.sin(x[:, ALPHA])
+
+
+def stored_energy(p: ElpasParams, x: np.ndarray, vehicle: bool) -> np.ndarray:
+    """Energy stored in the model (J): inductance, drive kinetic, spring, end stops; for the
+    vehicle also body/wheel/wishbone kinetic, gravity and tyre energy.  Shape ``(n,)``."""
+    m, dr, c = p.motor, p.drive, p.cone
+    e = 0.5 * m.L * x[:, CURRENT] ** 2 + 0.5 * dr.J_r * x[:, OMEGA] ** 2
+    e = e + spring_unchecked(c, x[:, GAMMA], x[:, ALPHA]).U
+    e = e + _end_stop(x[:, GAMMA], x[:, OMEGA], c.gamma_max, dr.k_stop, dr.d_stop)[2]
+    if vehicle:
+        car = p.car
+        alpha, ad, vs = x[:, ALPHA], x[:, ALPHA_DOT], x[:, V_S]
+        ca = np.cos(alpha)
+        e = e + 0.5 * (car.m_s + car.m_u) * vs**2 + car.m_u * c.l * ca * vs * ad
+        e = e + 0.5 * (car.m_u * (c.l * ca) ** 2 + car.J_w) * ad**2
+        y_u = x[:, Y_S] + c.l * np.sin(alpha)
+        e = e + GRAVITY * (car.m_s * x[:, Y_S] + car.m_u * y_u)
+        e = e + 0.5 * tyre_force_unchecked(p, x) ** 2 / car.k_t
+        e = e + _end_stop(alpha, ad, c.alpha_max, car.k_bump, car.d_bump)[2]
+    return e
