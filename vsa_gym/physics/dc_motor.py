@@ -85,3 +85,16 @@ def no_load_speed(p: DCMotorParams, u: float, coulomb: float = 0.0) -> float:
     Closed form of the motor's static no-load characteristic (rad/s).
     """
     return float((p.k_t * u / p.R - coulomb) / (p.b + p.k_t * p.k_e / p.R))
+
+
+def current_control_voltage(
+    p: DCMotorParams, i_ref: np.ndarray, i: np.ndarray, omega: np.ndarray, bandwidth_hz: float = 1000.0
+) -> np.ndarray:
+    """Voltage command of a current-mode amplifier (proportional loop with R and back-EMF feedforward).
+
+    ``u = R i_ref + k_e omega + L (2 pi f_c) (i_ref - i)`` places the closed current
+    loop's pole at ``f_c`` (the plant ``1/(L s + R)`` with the feedforward cancelling
+    ``R`` and the EMF).  Call it at the physics sub-step rate (e.g. 10 kHz for
+    ``f_c = 1 kHz``).  The amplifier limits still apply through :func:`applied_voltage`.
+    """
+    return p.R * i_ref + p.k_e * omega + p.L * 2.0 * np.pi * bandwidth_hz * (i_ref - i)
