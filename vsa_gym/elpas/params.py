@@ -127,6 +127,10 @@ class QuarterCarParams(ParameterSet):
                        tag="proposed", lower=0.0, doc="damper parallel to the actuator (0 to remove)")
     J_w: float = param(0.6, symbol="J_w", unit="kg m^2", source="parameters.md", tag="proposed",
                        lower=0.0, doc="wishbone inertia about the pivot O")
+    k_bump: float = param(5.0e4, symbol="k_bump", unit="N m/rad", source="chosen (suspension bump stops)",
+                          tag="proposed", lower=0.0, doc="wishbone end-stop stiffness beyond +-alpha_max")
+    d_bump: float = param(0.5, symbol="d_bump", unit="s/rad", source="Hunt-Crossley damping, chosen",
+                          tag="proposed", lower=0.0, doc="wishbone end-stop damping")
 
 
 @dataclasses.dataclass(frozen=True)
