@@ -1,0 +1,167 @@
+"""``vsa_gym/ELPAS-ForceTracking-v0``: the eLPAS on the paper's hydropulse rig, following a force reference."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vsa_gym.elpas import model as em
+from vsa_gym.envs.elpas_common import ElpasTask
+from vsa_gym.envs.signals import Multisine, SegmentReference
+from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.vector import TaskVectorEnv
+
+
+class ForceTrackingTask(ElpasTask):
+    """Batched logic of :class:`ElpasForceTrackingEnv` (its docstring documents everything)."""
+
+    reward_terms = ("force", "energy", "failure")
+    trace_names = ("F_act", "F_ref", "alpha", "gamma", "current", "P_el")
+    trace_units = ("N", "N", "rad", "rad", "A", "kW")
+    trace_groups = ((0, 1), (2, 3), (4, 5))
+
+    def __init__(self, n: int, *, w_force: float = 1.0, w_energy: float = 1e-3, force_scale: float = 500.0,
+                 force_range: tuple[float, float] = (1900.0, 3200.0), alpha_amplitude: float = np.deg2rad(15.0),
+                 failure_penalty: float = 100.0, **kwargs: Any) -> None:
+        super().__init__(n, **kwargs)
+        self.w_force, self.w_energy = float(w_force), float(w_energy)
+        self.force_scale, self.failure_penalty = float(force_scale), float(failure_penalty)
+        a_max = float(np.min(self.base_rows[0].cone.alpha_max))
+        if not 0.0 <= alpha_amplitude <= a_max:
+            raise ValueError(f"alpha_amplitude must lie in [0, alpha_max = {a_max:.4f}] rad, got {alpha_amplitude}")
+        self.alpha_sig = Multisine("alpha", min(float(alpha_amplitude), 0.999 * a_max))
+        self.ref = SegmentReference("fref", *force_range, duration=(0.3, 1.5), freq=(0.2, 5.0))
+        self.alpha_sig.alloc(self.s, self.n)
+        self.ref.alloc(self.s, self.n)
+        self.s["f_ref"] = np.zeros(self.n)
+        lo, hi = force_range
+        self._channels = tuple(self._common_channels() + [
+            ObsChannel("force_ref", "N", float(lo), float(hi), "force reference"),
+            ObsChannel("force_err", "N", float(lo) - 6000.0, float(hi), "force_ref - force"),
+        ])
+        self._alloc(len(self._channels))
+
+    @property
+    def obs_channels(self) -> tuple[ObsChannel, ...]:
+        return self._channels
+
+    def _reset_rows(self, rows: np.ndarray) -> None:
+        self._sample_params(rows)
+        self._reset_drive(rows)
+        for i in rows:
+            rng = self.rngs[int(i)]
+            g = float(rng.uniform(-0.5, 0.5))
+            self.s["x"][i] = em.initial_state_rig(self.row_params[int(i)], 1, gamma=g, alpha=0.0)[0]
+        self.alpha_sig.reset(self.s, rows, self.rngs)
+        self.ref.reset(self.s, rows, self.rngs)
+        self.s["f_ref"][rows] = self.ref.value(self.s, np.zeros(len(rows)), rows)
+        self._reset_sensors(rows)
+
+    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+        t_new = self.s["t"] + self.control_dt
+        alpha_end = self.alpha_sig.value(self.s, t_new)
+        e_el = self._physics(a, alpha_end)
+        charged, info = self._energy_info(e_el)
+        F = em.actuator_force_of(self.params, self.s["x"])
+        err = F - self.s["f_ref"]
+        margins = self._drive_margins(np.arange(self.n))
+        fail = (margins["margin_gamma_stop"] <= 0) | (margins["margin_i2t"] <= 0)
+        terms = {
+            "force": -self.w_force * (err / self.force_scale) ** 2,
+            "energy": -self.w_energy * charged / self.control_dt,
+            "failure": np.where(fail, -self.failure_penalty, 0.0),
+        }
+        info.update(margins)
+        info.update({"force_error": err, "alpha": self.s["x"][:, em.ALPHA].copy()})
+        self.s["f_ref"] = self.ref.advance(self.s, t_new, self.rngs)
+        return terms, fail, info
+
+    def _observe(self, rows: np.ndarray) -> np.ndarray:
+        c = self._common_obs(rows)
+        f_ref = self.s["f_ref"][rows]
+        return np.concatenate([c, np.stack([f_ref, f_ref - c[:, 5]], axis=1)], axis=1)
+
+    def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        return self._drive_margins(rows)
+
+    def _traces(self, rows: np.ndarray) -> np.ndarray:
+        x = self.s["x"][rows]
+        F = em.actuator_force_of(self.params, self.s["x"])[rows]
+        P = self.s["p_last"][rows]
+        return np.stack([F, self.s["f_ref"][rows], x[:, em.ALPHA], x[:, em.GAMMA], x[:, em.CURRENT], P / 1e3], axis=1)
+
+    def _draw_extra(self, ax: Any, i: int, scale: float) -> None:
+        x = self.s["x"][i]
+        c = self.row_params[i].cone
+        tip = np.array([np.cos(x[em.ALPHA]), np.sin(x[em.ALPHA])]) * c.l * scale
+        ax.plot([tip[0], tip[0]], [tip[1], -0.8], color="tab:purple", lw=4, label="hydropulse")
+
+
+_OBS_DOC = indent(obs_table(ForceTrackingTask(1).obs_channels))
+
+
+class ElpasForceTrackingEnv(TaskEnv):
+    __doc__ = f"""Force tracking on the eLPAS hydropulse rig (paper Sec. 5).
+
+    ## Description
+    The eLPAS (electromechanical low-power active suspension) sets the force of a fixed
+    spring on the wishbone by turning the spring's anchor arm (angle gamma) on a cone:
+    at alpha = 0 the spring exerts no moment on the arm, so holding a force costs no
+    energy.  On the rig the wishbone angle alpha(t) is imposed by a hydropulse: a
+    random-phase multisine of a few sines plus filtered noise, bounded by
+    ``alpha_amplitude`` (15 deg).  The actuator must follow a force reference (random steps,
+    ramps and sines in ``force_range`` = 1900-3200 N).  Physics: :mod:`vsa_gym.elpas.model`
+    (rig configuration).
+
+    ## Action space
+    ``Box(-1, 1, (1,), float32)``: motor voltage ``a U_max`` (42 V) or, with
+    ``control_mode="current"``, current reference ``a I_max`` (75 A) tracked by the paper's PI
+    current loop at 10 kHz (:mod:`vsa_gym.envs.elpas_common`).  Finite out-of-range values are
+    clipped; NaN/inf raise ``ValueError``.
+
+    ## Observation space
+    ``Box(low, high, (8,), float32)``, from sensors (clipped to the bounds):
+
+{_OBS_DOC}
+
+    ## Rewards
+    ``reward = force + energy + failure``::
+
+        force   = -w_force ((F_act - F_ref) / force_scale)^2          (force_scale = 500 N)
+        energy  = -w_energy P_el                                        (w_energy = 1e-3 per W)
+        failure = -failure_penalty on a failure step
+
+    ``P_el = E_el / control_dt`` is the mean electrical power over the step, ``E_el`` the
+    core's integral of ``u_eff i``.  Regenerated energy (``regen``): ``"clip"`` (default) --
+    negative ``E_el`` counts as 0, the supply cannot absorb it; ``"count"`` -- it is credited at
+    face value.  ``info``: ``reward_*``, ``energy_el`` (J, signed), ``energy_charged``, totals,
+    ``power_el`` (W), ``force_error`` (N), ``margin_gamma_stop`` (rad), ``margin_i2t`` (fraction).
+
+    ## Starting state
+    At rest, gamma uniform in +-0.5 rad, alpha = 0, no current, relaxed friction bristles.
+
+    ## Episode end
+    ``terminated``: gamma end stop contact (+-90 deg) or I^2 t trip.  ``truncated``: the time
+    limit (5000 steps = 5 s at the default ``control_dt`` of 1 ms).
+
+    ## Arguments
+    ``control_dt`` (1e-3 s), ``control_mode`` ("voltage" | "current"), ``params``
+    (:class:`vsa_gym.elpas.params.ElpasParams`, e.g. identified), ``domain_randomization``
+    (``{{"friction.F_c": (0.15, 0.3), ...}}``), ``sensor_noise`` (False | True | scale |
+    ``{{"current": A, "force": N}}``), ``regen``, ``render_mode``, ``w_force``, ``w_energy``,
+    ``force_scale``, ``force_range``, ``alpha_amplitude``, ``failure_penalty``, ``current_loop``
+    (:class:`~vsa_gym.envs.elpas_common.ElpasCurrentLoop`), ``i_nominal``, ``i2t_trip_s``,
+    ``velocity_cutoff_hz``.
+
+    ## Version history
+    * v0: initial release.
+    """
+
+    task_cls = ForceTrackingTask
+
+
+class ElpasForceTrackingVectorEnv(TaskVectorEnv):
+    """Native vector version of :class:`ElpasForceTrackingEnv`."""
+
+    task_cls = ForceTrackingTask

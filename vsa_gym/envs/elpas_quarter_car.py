@@ -1,0 +1,235 @@
+"""``vsa_gym/ELPAS-QuarterCar-v0``: ride comfort of a quarter car carried by the eLPAS on an ISO 8608 road."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy import signal
+
+from vsa_gym.elpas import model as em
+from vsa_gym.elpas.params import GRAVITY
+from vsa_gym.envs.elpas_common import ElpasTask
+from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.vector import TaskVectorEnv
+from vsa_gym.vehicle.comfort import wk_sos
+from vsa_gym.vehicle.road import ROAD_CLASSES, road_signal
+
+
+class QuarterCarTask(ElpasTask):
+    """Batched logic of :class:`ElpasQuarterCarEnv` (its docstring documents everything)."""
+
+    vehicle = True
+    noise_defaults = {"current": 0.2, "force": 5.0, "accel": 0.05}
+    reward_terms = ("comfort", "travel", "tyre", "energy", "failure")
+    trace_names = ("a_s", "a_w", "road", "travel", "F_t/F_0", "P_el")
+    trace_units = ("m/s^2", "m/s^2", "m", "m", "-", "kW")
+    trace_groups = ((0, 1), (2, 3), (4, 5))
+
+    def __init__(self, n: int, *, road_class: str = "C", speed: float = 20.0, road_duration_s: float = 12.0,
+                 w_comfort: float = 1.0, w_travel: float = 1.0, w_tyre: float = 1.0, w_energy: float = 1e-3,
+                 accel_scale: float = 1.0, travel_soft: float = 0.8, failure_penalty: float = 100.0,
+                 control_dt: float | None = 2e-3, **kwargs: Any) -> None:
+        super().__init__(n, control_dt=control_dt, **kwargs)
+        if not isinstance(road_class, str) or road_class.upper() not in ROAD_CLASSES or len(road_class) != 1:
+            raise ValueError(f"road_class must be one of {', '.join(ROAD_CLASSES)}, got {road_class!r}")
+        if not np.isfinite(speed) or speed <= 0:
+            raise ValueError(f"speed must be > 0 m/s, got {speed!r}")
+        if not 0.0 < travel_soft < 1.0:
+            raise ValueError(f"travel_soft must lie in (0, 1) (fraction of alpha_max), got {travel_soft}")
+        self.road_class, self.speed = road_class.upper(), float(speed)
+        self.road_steps = int(round(road_duration_s / self.control_dt))
+        self.w = {"comfort": float(w_comfort), "travel": float(w_travel), "tyre": float(w_tyre),
+                  "energy": float(w_energy)}
+        self.accel_scale, self.travel_soft = float(accel_scale), float(travel_soft)
+        self.failure_penalty = float(failure_penalty)
+        self.sos = wk_sos(1.0 / self.control_dt)
+        self.s["road"] = np.zeros((self.n, self.road_steps + 1))
+        self.s["road_k"] = np.zeros(self.n, dtype=np.intp)
+        self.s["wk_zi"] = np.zeros((self.n, self.sos.shape[0], 2))
+        self.s["acc"] = np.zeros(self.n)  # sprung-mass acceleration over the last step (m/s^2)
+        self.s["a_w"] = np.zeros(self.n)  # W_k-weighted acceleration
+        self.s["acc_meas"] = np.zeros(self.n)
+        self.s["aw_sq_sum"] = np.zeros(self.n)
+        self._channels = tuple(self._common_channels() + [
+            ObsChannel("body_accel", "m/s^2", -50.0, 50.0, "sprung-mass accelerometer (vertical, gravity removed)"),
+        ])
+        self._alloc(len(self._channels))
+
+    @property
+    def obs_channels(self) -> tuple[ObsChannel, ...]:
+        return self._channels
+
+    def _new_road(self, i: int, offset: float) -> None:
+        seed = int(self.rngs[i].integers(2**62))
+        self.s["road"][i] = offset + road_signal(self.road_class, self.speed, self.road_steps * self.control_dt,
+                                                 self.control_dt, seed)[: self.road_steps + 1]
+        self.s["road_k"][i] = 0
+
+    def _reset_rows(self, rows: np.ndarray) -> None:
+        self._sample_params(rows)
+        self._reset_drive(rows)
+        for i in rows:
+            self.s["x"][i] = em.initial_state_vehicle(self.row_params[int(i)], 1, gamma=0.0)[0]
+            self._new_road(int(i), 0.0)
+        for k in ("acc", "a_w", "acc_meas", "aw_sq_sum"):
+            self.s[k][rows] = 0.0
+        self.s["wk_zi"][rows] = 0.0
+        self._reset_sensors(rows)
+
+    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+        k = self.s["road_k"] + 1
+        road_end = self.s["road"][np.arange(self.n), np.minimum(k, self.road_steps)]
+        v_before = self.s["x"][:, em.V_S].copy()
+        e_el = self._physics(a, road_end)
+        self.s["road_k"] = k
+        for i in np.flatnonzero(k >= self.road_steps):  # drive on: a fresh stretch continuing at this height
+            self._new_road(int(i), float(road_end[i]))
+        charged, info = self._energy_info(e_el)
+        x = self.s["x"]
+        acc = (x[:, em.V_S] - v_before) / self.control_dt
+        # streaming ISO 2631-1 W_k filter, one row at a time per section (batched over rows)
+        aw, zi = signal.sosfilt(self.sos, acc[:, None], axis=1, zi=np.moveaxis(self.s["wk_zi"], 0, 1))
+        self.s["wk_zi"] = np.moveaxis(zi, 1, 0)
+        aw = aw[:, 0]
+        self.s["acc"], self.s["a_w"] = acc, aw
+        self.s["aw_sq_sum"] += aw**2
+        self.s["acc_meas"] = self._accel_reading(np.arange(self.n))
+        p = self.params
+        F_t = em.tyre_force_unchecked(p, x)
+        F0 = (self._col(p.car.m_s) + self._col(p.car.m_u)) * GRAVITY
+        alpha_max = self._col(p.cone.alpha_max)
+        travel_frac = np.abs(x[:, em.ALPHA]) / alpha_max
+        margins = self._margins(np.arange(self.n))
+        fail = (margins["margin_gamma_stop"] <= 0) | (margins["margin_i2t"] <= 0) | (F_t <= 0.0) | \
+            (margins["margin_travel"] <= 0)
+        terms = {
+            "comfort": -self.w["comfort"] * (aw / self.accel_scale) ** 2,
+            "travel": -self.w["travel"] * (np.maximum(travel_frac - self.travel_soft, 0.0)
+                                           / (1.0 - self.travel_soft)) ** 2,
+            "tyre": -self.w["tyre"] * ((F_t - F0) / F0) ** 2,
+            "energy": -self.w["energy"] * charged / self.control_dt,
+            "failure": np.where(fail, -self.failure_penalty, 0.0),
+        }
+        info.update(margins)
+        t_new = self.s["t"] + self.control_dt
+        info.update({"body_accel": acc, "weighted_accel": aw, "tyre_force": F_t,
+                     "a_w_rms": np.sqrt(self.s["aw_sq_sum"] / np.maximum(t_new / self.control_dt, 1.0)),
+                     "road_height": road_end, "suspension_travel": em.suspension_travel(p, x)})
+        return terms, fail, info
+
+    def _accel_reading(self, rows: np.ndarray) -> np.ndarray:
+        from vsa_gym.envs.sensing import add_noise
+
+        return add_noise(self.s["acc"][rows], self.noise["accel"], self.rngs, rows)
+
+    def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        p = self.params
+        x = self.s["x"]
+        F_t = em.tyre_force_unchecked(p, x)[rows]
+        F0 = ((self._col(p.car.m_s) + self._col(p.car.m_u)) * GRAVITY)[rows]
+        out = self._drive_margins(rows)
+        out["margin_travel"] = self._col(p.cone.alpha_max)[rows] - np.abs(x[rows, em.ALPHA])
+        out["margin_tyre_load"] = F_t / F0
+        return out
+
+    def _observe(self, rows: np.ndarray) -> np.ndarray:
+        return np.concatenate([self._common_obs(rows), self.s["acc_meas"][rows, None]], axis=1)
+
+    def _traces(self, rows: np.ndarray) -> np.ndarray:
+        p = self.params
+        x = self.s["x"]
+        F_t = em.tyre_force_unchecked(p, x)[rows]
+        F0 = ((self._col(p.car.m_s) + self._col(p.car.m_u)) * GRAVITY)[rows]
+        road = self.s["road"][rows, np.minimum(self.s["road_k"][rows], self.road_steps)]
+        return np.stack([self.s["acc"][rows], self.s["a_w"][rows], road, em.suspension_travel(p, x)[rows], F_t / F0,
+                         self.s["p_last"][rows] / 1e3], axis=1)
+
+    def _draw_extra(self, ax: Any, i: int, scale: float) -> None:
+        x = self.s["x"][i]
+        c = self.row_params[i].cone
+        ys = x[em.Y_S] * scale
+        ax.add_patch(_rect((-0.25, ys + 0.05), 0.5, 0.25))
+        tip = np.array([np.cos(x[em.ALPHA]), ys + np.sin(x[em.ALPHA])]) * np.array([c.l * scale, 1.0])
+        tip[1] = ys + np.sin(x[em.ALPHA]) * c.l * scale
+        ax.plot(*tip, "o", ms=14, color="0.2", label="wheel")
+        road = self.s["road"][i, min(int(self.s["road_k"][i]), self.road_steps)] * scale
+        ax.plot([tip[0] - 0.3, tip[0] + 0.3], [road - 0.5, road - 0.5], color="k", lw=2, label="road")
+
+
+def _rect(xy: tuple[float, float], w: float, h: float) -> Any:
+    from matplotlib.patches import Rectangle
+
+    return Rectangle(xy, w, h, color="tab:blue", alpha=0.5, label="body")
+
+
+_OBS_DOC = indent(obs_table(QuarterCarTask(1).obs_channels))
+
+
+class ElpasQuarterCarEnv(TaskEnv):
+    __doc__ = f"""Ride comfort of a quarter car (cabin corner) suspended by the eLPAS, on an ISO 8608 road.
+
+    ## Description
+    The sprung mass (260.4 kg) hangs on the wishbone pivot; the unsprung mass (40 kg) sits
+    at the wishbone tip on a unilateral tyre (200 kN/m); a 1.2 kN s/m damper acts in
+    parallel (parameters: :class:`vsa_gym.elpas.params.QuarterCarParams`).  The car drives
+    at ``speed`` (20 m/s) over a random road of ISO 8608 class ``road_class`` ("C")
+    (:func:`vsa_gym.vehicle.road.road_signal`, fresh per episode).  The controller turns
+    the eLPAS arm to shape the suspension force so as to minimise the ISO 2631-1
+    W_k-weighted sprung-mass acceleration (:func:`vsa_gym.vehicle.comfort.wk_sos`, applied
+    causally step by step), within the suspension travel and without losing tyre contact,
+    at a small energy cost.  Physics: :mod:`vsa_gym.elpas.model` (vehicle configuration).
+
+    ## Action space
+    ``Box(-1, 1, (1,), float32)``: motor voltage ``a U_max`` or current reference ``a I_max``
+    (``control_mode``), as in ``ELPAS-ForceTracking-v0``.  Out-of-range values are clipped;
+    NaN/inf raise ``ValueError``.
+
+    ## Observation space
+    ``Box(low, high, (7,), float32)``, from sensors (clipped to the bounds):
+
+{_OBS_DOC}
+
+    ## Rewards
+    ``reward = comfort + travel + tyre + energy + failure``::
+
+        comfort = -w_comfort (a_w / accel_scale)^2          a_w: W_k-filtered body acceleration (m/s^2)
+        travel  = -w_travel (max(|alpha|/alpha_max - travel_soft, 0) / (1 - travel_soft))^2
+        tyre    = -w_tyre ((F_t - F_0) / F_0)^2             dynamic tyre load, F_0 = (m_s + m_u) g
+        energy  = -w_energy P_el                            P_el = E_el / control_dt (W), E_el from the core
+        failure = -failure_penalty on a failure step
+
+    The episode mean of ``-comfort`` is the squared ISO 2631 weighted RMS (``info["a_w_rms"]``
+    gives the running RMS).  Regeneration (``regen``): "clip" (default, no credit) or "count".
+    ``info`` also holds ``energy_el`` (J), ``power_el`` (W), ``tyre_force`` (N),
+    ``suspension_travel`` (m), ``road_height`` (m) and the margins ``margin_travel`` (rad),
+    ``margin_tyre_load`` (F_t / F_0), ``margin_gamma_stop`` (rad), ``margin_i2t``.
+
+    ## Starting state
+    Static equilibrium at gamma = 0 on level road (the road ramps in over 0.5 s).
+
+    ## Episode end
+    ``terminated``: tyre lift-off (``F_t = 0``), wishbone bump stop contact (``|alpha| >=
+    alpha_max``), gamma end stop contact, I^2 t trip.  ``truncated``: the time limit
+    (5000 steps = 10 s at the default ``control_dt`` of 2 ms).
+
+    ## Arguments
+    ``road_class`` ("A".."H"), ``speed`` (m/s), ``road_duration_s`` (length of each generated
+    stretch; the road continues seamlessly), ``control_dt`` (2e-3 s; must be < 5 ms for the
+    W_k filter), ``control_mode``, ``params``, ``domain_randomization`` (e.g.
+    ``{{"car.m_s": (230, 290)}}``), ``sensor_noise`` (channels ``current``, ``force``, ``accel``),
+    ``regen``, ``render_mode``, ``w_comfort``, ``w_travel``, ``w_tyre``, ``w_energy``,
+    ``accel_scale``, ``travel_soft``, ``failure_penalty`` and the drive options of
+    :class:`vsa_gym.envs.elpas_common.ElpasTask`.
+
+    ## Version history
+    * v0: initial release.
+    """
+
+    task_cls = QuarterCarTask
+
+
+class ElpasQuarterCarVectorEnv(TaskVectorEnv):
+    """Native vector version of :class:`ElpasQuarterCarEnv`."""
+
+    task_cls = QuarterCarTask

@@ -1,0 +1,127 @@
+"""Batched reference and excitation signals with per-row random streams.
+
+* :class:`SegmentReference` -- a chain of random segments (step, ramp, sine) inside
+  ``[low, high]``, each lasting a random time; a new segment starts from the
+  current value, so ramps and sines are continuous and steps jump.  Used for the
+  position, stiffness, force and disturbance references.
+* :class:`Multisine` -- a sum of sines with random phases: a few dominant sines
+  plus "filtered noise" synthesised as many log-spaced components whose
+  amplitudes follow a first-order low-pass spectrum (the random-phase multisine
+  representation of filtered noise).  The amplitudes are scaled so that the sum
+  of their magnitudes equals the peak, so ``|signal| <= peak`` holds exactly.
+  Used for the rig's imposed wishbone angle alpha(t).
+
+State lives in the task's state dict ``s`` under a key prefix (so the vector
+environment can snapshot rows); the objects here only hold the configuration.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+STEP, RAMP, SINE = 0, 1, 2
+KIND_NAMES = ("step", "ramp", "sine")
+
+
+class SegmentReference:
+    """Random steps, ramps and sines in ``[low, high]`` (see the module docstring)."""
+
+    def __init__(self, prefix: str, low: float, high: float, duration: tuple[float, float] = (0.5, 2.0),
+                 freq: tuple[float, float] = (0.2, 2.0), kinds: Sequence[str] = KIND_NAMES,
+                 zero_prob: float = 0.0) -> None:
+        if not high > low:
+            raise ValueError(f"{prefix}: reference range needs high > low, got [{low}, {high}]")
+        unknown = set(kinds) - set(KIND_NAMES)
+        if unknown or not kinds:
+            raise ValueError(f"{prefix}: kinds must be a non-empty subset of {KIND_NAMES}, got {kinds!r}")
+        self.prefix, self.low, self.high = prefix, float(low), float(high)
+        self.duration, self.freq = duration, freq
+        self.kinds = np.array([KIND_NAMES.index(k) for k in kinds])
+        self.zero_prob = zero_prob  # probability that a step segment holds 0 (for disturbances)
+
+    def alloc(self, s: dict[str, np.ndarray], n: int) -> None:
+        for name in ("kind", "t0", "T", "v0", "v1", "A", "f"):
+            s[f"{self.prefix}_{name}"] = np.zeros(n)
+
+    def start(self, s: dict[str, np.ndarray], rows: np.ndarray, rngs: list[np.random.Generator],
+              t: np.ndarray, v_now: np.ndarray) -> None:
+        """Draw a new segment for ``rows`` starting at times ``t`` from values ``v_now``."""
+        p = self.prefix
+        for j, i in enumerate(rows):
+            rng = rngs[int(i)]
+            kind = int(self.kinds[rng.integers(len(self.kinds))])
+            v0 = float(np.clip(v_now[j], self.low, self.high))
+            T = float(rng.uniform(*self.duration))
+            v1 = float(rng.uniform(self.low, self.high))
+            if self.zero_prob > 0.0 and rng.uniform() < self.zero_prob:
+                kind, v1 = STEP, float(np.clip(0.0, self.low, self.high))
+            room = min(v0 - self.low, self.high - v0)
+            A = float(rng.uniform(0.0, 1.0)) * room * (1.0 if rng.uniform() < 0.5 else -1.0)
+            f = float(rng.uniform(*self.freq))
+            for name, val in (("kind", kind), ("t0", t[j]), ("T", T), ("v0", v0), ("v1", v1), ("A", A), ("f", f)):
+                s[f"{p}_{name}"][i] = val
+
+    def reset(self, s: dict[str, np.ndarray], rows: np.ndarray, rngs: list[np.random.Generator]) -> None:
+        """Start at time 0 from a random value."""
+        v = np.array([rngs[int(i)].uniform(self.low, self.high) for i in rows])
+        self.start(s, rows, rngs, np.zeros(len(rows)), v)
+
+    def value(self, s: dict[str, np.ndarray], t: np.ndarray, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
+        p = self.prefix
+        kind, t0, T = s[f"{p}_kind"][rows], s[f"{p}_t0"][rows], s[f"{p}_T"][rows]
+        v0, v1, A, f = s[f"{p}_v0"][rows], s[f"{p}_v1"][rows], s[f"{p}_A"][rows], s[f"{p}_f"][rows]
+        tau = t - t0
+        ramp = v0 + (v1 - v0) * np.clip(tau / T, 0.0, 1.0)
+        sine = v0 + A * np.sin(2.0 * np.pi * f * tau)
+        return np.where(kind == STEP, v1, np.where(kind == RAMP, ramp, sine))
+
+    def advance(self, s: dict[str, np.ndarray], t: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
+        """Value at times ``t`` (all rows), renewing the segments that have ended."""
+        v = self.value(s, t)
+        ended = np.flatnonzero(t >= s[f"{self.prefix}_t0"] + s[f"{self.prefix}_T"])
+        if ended.size:
+            self.start(s, ended, rngs, t[ended], v[ended])
+            v[ended] = self.value(s, t[ended], ended)
+        return v
+
+
+class Multisine:
+    """Random-phase multisine bounded by ``peak`` (see the module docstring)."""
+
+    def __init__(self, prefix: str, peak: float, n_sines: int = 3, sine_freq: tuple[float, float] = (0.1, 3.0),
+                 n_noise: int = 24, noise_band: tuple[float, float] = (0.1, 20.0), noise_cutoff: float = 2.0,
+                 noise_share: float = 0.4) -> None:
+        self.prefix, self.peak = prefix, float(peak)
+        self.n_sines, self.sine_freq = n_sines, sine_freq
+        self.noise_f = np.geomspace(noise_band[0], noise_band[1], n_noise)
+        self.noise_shape = 1.0 / np.sqrt(1.0 + (self.noise_f / noise_cutoff) ** 2)
+        self.noise_share = noise_share
+        self.k = n_sines + n_noise
+
+    def alloc(self, s: dict[str, np.ndarray], n: int) -> None:
+        for name in ("A", "f", "phi"):
+            s[f"{self.prefix}_{name}"] = np.zeros((n, self.k))
+
+    def reset(self, s: dict[str, np.ndarray], rows: np.ndarray, rngs: list[np.random.Generator]) -> None:
+        p = self.prefix
+        for i in rows:
+            rng = rngs[int(i)]
+            level = float(rng.uniform(0.2, 1.0)) * self.peak  # overall excitation level of this episode
+            a_s = rng.uniform(0.0, 1.0, self.n_sines)
+            f_s = rng.uniform(*self.sine_freq, self.n_sines)
+            a_n = self.noise_shape * rng.uniform(0.5, 1.0, self.noise_f.size)
+            a_s = a_s / max(a_s.sum(), 1e-12) * (1.0 - self.noise_share)
+            a_n = a_n / a_n.sum() * self.noise_share
+            s[f"{p}_A"][i] = level * np.concatenate([a_s, a_n])
+            s[f"{p}_f"][i] = np.concatenate([f_s, self.noise_f])
+            s[f"{p}_phi"][i] = rng.uniform(0.0, 2.0 * np.pi, self.k)
+
+    def value(self, s: dict[str, np.ndarray], t: np.ndarray, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Signal at times ``t``, starting from 0 at ``t = 0`` (the value at 0 is subtracted)."""
+        p = self.prefix
+        A, f, phi = s[f"{p}_A"][rows], s[f"{p}_f"][rows], s[f"{p}_phi"][rows]
+        tt = np.asarray(t)[..., None]
+        # sin(w t + phi) - sin(phi): starts at zero; the bound doubles, so halve the amplitudes
+        return 0.5 * np.sum(A * (np.sin(2.0 * np.pi * f * tt + phi) - np.sin(phi)), axis=-1)

@@ -1,0 +1,345 @@
+"""The batched task: one implementation of an environment's logic for ``n`` sub-environments.
+
+Every environment of :mod:`vsa_gym.envs` is a :class:`BatchedTask` subclass that
+holds ``n`` copies of the device (one batched physics-core state), the
+references, the sensor pipeline, the reward and the termination rules, all as
+numpy arrays with a leading axis ``n``.  The single environment
+(:class:`TaskEnv`, ``n = 1``) and the native vector environment
+(:class:`vsa_gym.envs.vector.TaskVectorEnv`) both drive the same task object, so a
+vector of ``n`` equals ``n`` single environments by construction.
+
+Randomness: every row has its own ``numpy.random.Generator`` (``self.rngs[i]``),
+created with :func:`gymnasium.utils.seeding.np_random` from the reset seed.  A
+row never touches another row's generator, so row ``i`` of a vector reset with
+seed ``s`` reproduces a single environment reset with seed ``s + i``.
+
+Mutable per-row state lives in ``self.s`` (a dict of arrays with leading axis
+``n``); everything else (parameters, models) changes only on reset.  This lets
+the vector environment snapshot and restore rows (autoreset) generically.
+
+Action policy (all environments): actions must have the declared shape and be
+finite -- a NaN or infinite component raises ``ValueError`` naming the
+component, *before* anything is changed, so the state is never corrupted.
+Finite components outside ``[-1, 1]`` are clipped to the box; ``info["action_clipped"]``
+reports it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from abc import ABC, abstractmethod
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar, Literal
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils import seeding
+
+from vsa_gym.envs.randomization import DomainRandomization
+from vsa_gym.envs.sensing import NoiseSpec, resolve_noise
+
+ControlMode = Literal["voltage", "current"]
+RegenPolicy = Literal["clip", "count"]
+
+
+@dataclasses.dataclass(frozen=True)
+class ObsChannel:
+    """One observation entry: name, unit, bounds and meaning (the docstring tables are built from these)."""
+
+    name: str
+    unit: str
+    low: float
+    high: float
+    doc: str
+
+
+def obs_table(channels: Sequence[ObsChannel]) -> str:
+    """The observation table as markdown (index, name, unit, low, high, meaning)."""
+    lines = ["| # | name | unit | low | high | meaning |", "|---|---|---|---|---|---|"]
+    for k, c in enumerate(channels):
+        lines.append(f"| {k} | `{c.name}` | {c.unit} | {c.low:.6g} | {c.high:.6g} | {c.doc} |")
+    return "\n".join(lines)
+
+
+def indent(text: str, prefix: str = "    ") -> str:
+    """Indent every line (for tables inserted into class docstrings)."""
+    return "\n".join(prefix + line for line in text.splitlines())
+
+
+class BatchedTask(ABC):
+    """Base class of the batched environment logic (see the module docstring).
+
+    Subclasses set the class attributes, build ``self.s`` in ``__init__`` (after
+    calling ``super().__init__``), and implement :meth:`_reset_rows`,
+    :meth:`_advance` and :meth:`_observe` plus the drawing hooks.
+    """
+
+    action_names: ClassVar[tuple[str, ...]]
+    reward_terms: ClassVar[tuple[str, ...]]
+    default_control_dt: ClassVar[float]
+    noise_defaults: ClassVar[Mapping[str, float]] = {}
+    trace_names: ClassVar[tuple[str, ...]] = ()
+    trace_units: ClassVar[tuple[str, ...]] = ()
+    trace_groups: ClassVar[tuple[tuple[int, ...], ...]] = ()  # traces plotted together (indices)
+    history_s: ClassVar[float] = 2.0  # seconds of traces kept for rendering
+
+    def __init__(
+        self,
+        n: int,
+        *,
+        control_dt: float | None,
+        control_mode: ControlMode,
+        sensor_noise: NoiseSpec,
+        domain_randomization: DomainRandomization | Mapping[str, tuple[float, float]] | None,
+        regen: RegenPolicy,
+    ) -> None:
+        if not isinstance(n, int | np.integer) or n < 1:
+            raise ValueError(f"number of environments must be an int >= 1, got {n!r}")
+        self.n = int(n)
+        dt = self.default_control_dt if control_dt is None else float(control_dt)
+        if not np.isfinite(dt) or dt <= 0.0:
+            raise ValueError(f"control_dt must be a positive time step in s, got {control_dt!r}")
+        self.control_dt = dt
+        if control_mode not in ("voltage", "current"):
+            raise ValueError(f"control_mode must be 'voltage' or 'current', got {control_mode!r}")
+        self.control_mode: ControlMode = control_mode
+        if regen not in ("clip", "count"):
+            raise ValueError(f"regen must be 'clip' or 'count', got {regen!r}")
+        self.regen: RegenPolicy = regen
+        self.noise = resolve_noise(sensor_noise, self.noise_defaults)
+        if domain_randomization is None or isinstance(domain_randomization, DomainRandomization):
+            self.randomization = domain_randomization
+        else:
+            self.randomization = DomainRandomization(domain_randomization)
+        self.rngs: list[np.random.Generator] = [seeding.np_random(None)[0] for _ in range(self.n)]
+        self.s: dict[str, np.ndarray] = {}
+        self._hist_len = max(2, int(round(self.history_s / self.control_dt)))
+
+    # ------------------------------------------------------------------ spaces
+    @property
+    @abstractmethod
+    def obs_channels(self) -> tuple[ObsChannel, ...]:
+        """The observation layout (depends on the parameters, hence per instance)."""
+
+    @property
+    def obs_low(self) -> np.ndarray:
+        return np.array([c.low for c in self.obs_channels], dtype=np.float32)
+
+    @property
+    def obs_high(self) -> np.ndarray:
+        return np.array([c.high for c in self.obs_channels], dtype=np.float32)
+
+    def single_observation_space(self) -> gym.spaces.Box:
+        return gym.spaces.Box(self.obs_low, self.obs_high, dtype=np.float32)
+
+    def single_action_space(self) -> gym.spaces.Box:
+        m = len(self.action_names)
+        return gym.spaces.Box(-np.ones(m, dtype=np.float32), np.ones(m, dtype=np.float32), dtype=np.float32)
+
+    # ------------------------------------------------------------------ public API
+    def seed_rows(self, rows: np.ndarray, seeds: Sequence[int | None]) -> None:
+        """Give rows fresh generators from their seeds (``None`` keeps the current stream)."""
+        for i, sd in zip(rows, seeds, strict=True):
+            if sd is not None:
+                self.rngs[int(i)] = seeding.np_random(int(sd))[0]
+
+    def reset(self, rows: np.ndarray | None = None) -> None:
+        """Start new episodes in ``rows`` (all by default), drawing from the rows' generators."""
+        rows = np.arange(self.n) if rows is None else np.asarray(rows, dtype=np.intp)
+        self._reset_rows(rows)
+        self.s["t"][rows] = 0.0
+        self.s["hist"][:, rows] = np.nan
+        self.s["hist_pos"][rows] = 0
+        self.s["obs"][rows] = self._clip_obs(self._observe(rows))
+        self._record(rows)
+
+    def validate_action(self, action: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Check shape and finiteness (``ValueError``), clip to ``[-1, 1]``; returns ``(a, clipped_rows)``."""
+        m = len(self.action_names)
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"action is not numeric: {action!r}") from exc
+        if self.n == 1 and a.shape == (m,):
+            a = a[None, :]
+        if a.shape != (self.n, m):
+            raise ValueError(f"action: expected shape ({m},) per environment, i.e. ({self.n}, {m}); got {a.shape}")
+        bad = ~np.isfinite(a)
+        if np.any(bad):
+            row, k = (int(v) for v in np.argwhere(bad)[0])
+            raise ValueError(
+                f"action component {k} ({self.action_names[k]}) is {a[row, k]!r} in environment {row}; "
+                "actions must be finite (nothing was changed)"
+            )
+        clipped = np.any(np.abs(a) > 1.0, axis=1)
+        return np.clip(a, -1.0, 1.0), clipped
+
+    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """Advance all rows one control step. Returns ``(obs, reward, terminated, info)`` batched."""
+        a, clipped = self.validate_action(action)
+        terms, terminated, info = self._advance(a)
+        reward = np.zeros(self.n)
+        for name in self.reward_terms:
+            reward = reward + terms[name]
+            info[f"reward_{name}"] = terms[name]
+        self.s["t"] += self.control_dt
+        self.s["obs"][:] = self._clip_obs(self._observe(np.arange(self.n)))
+        self._record(np.arange(self.n))
+        info["action_clipped"] = clipped
+        info["time"] = self.s["t"].copy()
+        return self.s["obs"].copy(), reward, terminated, info
+
+    def observation(self) -> np.ndarray:
+        return self.s["obs"].copy()
+
+    def reset_info(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        """Info returned by ``reset`` for ``rows``: time and the constraint margins."""
+        info = {k: v for k, v in self._margins(rows).items()}
+        info["time"] = self.s["t"][rows].copy()
+        return info
+
+    # ------------------------------------------------------------------ snapshots (vector autoreset)
+    def snapshot(self, rows: np.ndarray) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
+        state = {k: (v[:, rows].copy() if k == "hist" else v[rows].copy()) for k, v in self.s.items()}
+        rng_states = [self.rngs[int(i)].bit_generator.state for i in rows]
+        return state, rng_states
+
+    def restore(self, rows: np.ndarray, snap: tuple[dict[str, np.ndarray], list[dict[str, Any]]]) -> None:
+        state, rng_states = snap
+        for k, v in state.items():
+            if k == "hist":
+                self.s[k][:, rows] = v
+            else:
+                self.s[k][rows] = v
+        for i, st in zip(rows, rng_states, strict=True):
+            self.rngs[int(i)].bit_generator.state = st
+
+    # ------------------------------------------------------------------ helpers for subclasses
+    def _alloc(self, n_obs: int) -> None:
+        """Allocate the bookkeeping arrays every task has (call at the end of ``__init__``)."""
+        self.s["t"] = np.zeros(self.n)
+        self.s["obs"] = np.zeros((self.n, n_obs), dtype=np.float32)
+        self.s["hist"] = np.full((self._hist_len, self.n, max(1, len(self.trace_names))), np.nan)
+        self.s["hist_pos"] = np.zeros(self.n, dtype=np.intp)
+
+    def _clip_obs(self, obs: np.ndarray) -> np.ndarray:
+        return np.clip(obs, self.obs_low.astype(np.float64), self.obs_high.astype(np.float64)).astype(np.float32)
+
+    def _record(self, rows: np.ndarray) -> None:
+        if not self.trace_names:
+            return
+        vals = self._traces(rows)
+        pos = self.s["hist_pos"][rows]
+        self.s["hist"][pos % self._hist_len, rows] = vals
+        self.s["hist_pos"][rows] = pos + 1
+
+    def history(self, i: int) -> np.ndarray:
+        """Recent traces of row ``i`` in time order, shape ``(k, n_traces)`` (oldest first)."""
+        pos = int(self.s["hist_pos"][i])
+        h = self.s["hist"][:, i]
+        if pos <= self._hist_len:
+            return h[:pos]
+        k = pos % self._hist_len
+        return np.concatenate([h[k:], h[:k]])
+
+    def energy_cost_basis(self, e_motors: np.ndarray) -> np.ndarray:
+        """Electrical energy that the energy term charges, from per-motor energies ``(n, m)`` (J).
+
+        ``regen="clip"``: each motor's energy over the step is clipped at 0 (the
+        supply cannot take regenerated energy back; it is burnt in the brake
+        chopper), ``regen="count"``: the signed sum (regeneration is credited).
+        """
+        if self.regen == "clip":
+            return np.maximum(e_motors, 0.0).sum(axis=1)
+        return e_motors.sum(axis=1)
+
+    # ------------------------------------------------------------------ hooks
+    @abstractmethod
+    def _reset_rows(self, rows: np.ndarray) -> None:
+        """Sample parameters, initial states and references for ``rows`` (use ``self.rngs[i]``)."""
+
+    @abstractmethod
+    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+        """Apply clipped actions ``(n, m)`` for one control step.
+
+        Returns ``(reward_terms, terminated, info)``; each reward term is an ``(n,)``
+        array (already signed: the reward is their sum).
+        """
+
+    @abstractmethod
+    def _observe(self, rows: np.ndarray) -> np.ndarray:
+        """Sensor-based observation of ``rows``, ``(len(rows), n_obs)`` (float64, unclipped)."""
+
+    @abstractmethod
+    def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        """Constraint margins ``margin_*`` of ``rows`` (positive: inside the constraint)."""
+
+    def _traces(self, rows: np.ndarray) -> np.ndarray:
+        """Values recorded for the trace plot, ``(len(rows), n_traces)``."""
+        return np.zeros((len(rows), 1))
+
+    def draw_mechanism(self, ax: Any, i: int) -> None:
+        """Draw row ``i``'s mechanism schematically on the matplotlib axes ``ax`` (default: a label)."""
+        ax.text(0.5, 0.5, type(self).__name__, ha="center", va="center", transform=ax.transAxes)
+
+
+class TaskEnv(gym.Env[np.ndarray, np.ndarray]):
+    """A single Gymnasium environment over a :class:`BatchedTask` with ``n = 1``.
+
+    Subclasses set ``task_cls``; the constructor's keyword arguments go to it.
+    """
+
+    task_cls: ClassVar[type[BatchedTask]]
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 25}
+    render_size: ClassVar[tuple[int, int]] = (480, 720)  # (height, width) of rendered frames
+
+    def __init__(self, render_mode: str | None = None, **task_kwargs: Any) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
+        self.render_mode = render_mode
+        self.task = self.task_cls(1, **task_kwargs)
+        self.observation_space = self.task.single_observation_space()
+        self.action_space = self.task.single_action_space()
+        self._renderer: Any = None
+        self._rows = np.arange(1)
+        self._has_reset = False
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, dict]:
+        super().reset(seed=seed)
+        self.task.rngs[0] = self.np_random  # seeded by gym.Env.reset when seed is given, else the running stream
+        self.task.reset(self._rows)
+        self._has_reset = True
+        return self.task.observation()[0], _row_info(self.task.reset_info(self._rows), 0)
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if not self._has_reset:
+            raise RuntimeError("call reset() before step()")
+        obs, reward, terminated, info = self.task.step(np.asarray(action)[None, ...])
+        return obs[0], float(reward[0]), bool(terminated[0]), False, _row_info(info, 0)
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        from vsa_gym.envs.rendering import Renderer
+
+        if self._renderer is None:
+            self._renderer = Renderer(self.render_size, title=type(self).__name__)
+        frame = self._renderer.draw(self.task, 0)
+        if self.render_mode == "human":
+            self._renderer.show(frame)
+            return None
+        return frame
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def _row_info(info: Mapping[str, np.ndarray], i: int) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in info.items():
+        x = v[i]
+        out[k] = bool(x) if isinstance(x, np.bool_) else float(x)
+    return out

@@ -1,0 +1,301 @@
+"""What both vsaUT-II environments share: drive commands, sensors, energy, failures, drawing.
+
+Nothing here integrates physics: every step calls :meth:`VsaUT2Model.step` of the
+core, and the energy terms are the core's integrated power channels
+``el_pivot``/``el_frame``.
+
+Commands (``control_mode``):
+
+* ``"voltage"``: ``u_j = a_j U_max,j`` (V), held over the control step;
+* ``"current"``: ``i_ref,j = a_j I_max,j`` (A); a current-mode amplifier law
+  (:func:`vsa_gym.physics.dc_motor.current_control_voltage`: ``R i_ref + k_e w + L 2 pi f_c (i_ref - i)``,
+  ``f_c = current_bandwidth_hz``) runs at 10 kHz: the core is called every 0.1 ms
+  with the voltage recomputed from the current state (Fig. 9 of the paper drives the frame with a constant
+  current).  The amplifier's voltage and current limits act inside the core in both modes.
+
+Sensors (:mod:`vsa_gym.physics.sensors`): incremental encoders (2000 pulses/rev,
+eq. 8) on both motor shafts, the AS5043 absolute encoder (10 bit, gain mismatch) on
+the output, the drives' current measurements (optional white noise).
+
+Failures (``terminated``): frame end stop contact ``|q2| >= q2_max``, deflection end
+stop contact ``|phi| >= phi_max``, and an I^2 t over-current trip of either drive
+(:mod:`vsa_gym.envs.sensing`; nominal current 4 A, Table IV, peak 12 A for ``i2t_trip_s``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from vsa_gym.envs.randomization import DomainRandomization
+from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
+from vsa_gym.envs.task import BatchedTask, ControlMode, ObsChannel, RegenPolicy
+from vsa_gym.physics.belt import belt_stiffness_at_frame
+from vsa_gym.physics.dc_motor import current_control_voltage
+from vsa_gym.physics.lever import spring_stiffness
+from vsa_gym.physics.pivot import pivot_position
+from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
+from vsa_gym.vsaut2.model import POWER, STATE, VsaUT2Model
+from vsa_gym.vsaut2.params import VsaUT2Params
+
+CURRENT_LOOP_DT = 1e-4  # s, 10 kHz current loop in current mode
+K_FLOOR = 0.1  # N m/rad, floor of the stiffness before taking its log (eq. 6 turns negative past 45 deg)
+
+
+class VsaUT2Task(BatchedTask):
+    """Shared vsaUT-II machinery; subclasses add references, reward and extra observations."""
+
+    action_names = ("pivot motor command", "frame motor command")
+    default_control_dt = 2e-3
+    noise_defaults: Mapping[str, float] = {"current": 0.02}  # A, drive current measurement
+
+    def __init__(
+        self,
+        n: int,
+        *,
+        control_dt: float | None = None,
+        control_mode: ControlMode = "voltage",
+        params: VsaUT2Params | None = None,
+        domain_randomization: DomainRandomization | Mapping[str, tuple[float, float]] | None = None,
+        sensor_noise: NoiseSpec = False,
+        regen: RegenPolicy = "clip",
+        current_bandwidth_hz: float = 1000.0,
+        i_nominal: float = 4.0,
+        i2t_trip_s: float = 2.0,
+        velocity_cutoff_hz: float = 50.0,
+    ) -> None:
+        super().__init__(n, control_dt=control_dt, control_mode=control_mode, sensor_noise=sensor_noise,
+                         domain_randomization=domain_randomization, regen=regen)
+        base = VsaUT2Params() if params is None else params
+        if not isinstance(base, VsaUT2Params):
+            raise TypeError(f"params must be a VsaUT2Params, got {type(base).__name__}")
+        bs = base.batch_size
+        if bs is not None and bs != self.n:
+            raise ValueError(f"params are batched with {bs} sets but there are {self.n} environments")
+        self.base_rows = [base.index(i) if bs is not None else base for i in range(self.n)]
+        self.row_params = list(self.base_rows)
+        if self.randomization is not None:
+            self.randomization.check(base)
+        self._build_model()
+        self.current_bandwidth_hz = float(current_bandwidth_hz)
+        self.i_nominal = float(i_nominal)
+        self.i2t_trip_s = float(i2t_trip_s)
+        self.v_gain = lowpass_gain(velocity_cutoff_hz, self.control_dt)
+        self.motor_encoder = IncrementalEncoder()
+        self.output_encoder = AbsoluteEncoder()
+        if control_mode == "current":
+            self.n_inner = max(1, int(round(self.control_dt / CURRENT_LOOP_DT)))
+        else:
+            self.n_inner = 1
+        n_ = self.n
+        self.s["x"] = np.zeros((n_, self.model.n_states))
+        self.s["i2t"] = np.zeros((n_, 2))
+        self.s["meas"] = np.zeros((n_, 3))  # quantised th1, th2 (motor rad), r (rad) of the last sample
+        self.s["vel"] = np.zeros((n_, 3))  # filtered speed estimates of the same
+        self.s["cur"] = np.zeros((n_, 2))  # measured currents
+        self.s["e_el"] = np.zeros(n_)  # cumulative signed electrical energy (J)
+        self.s["e_charged"] = np.zeros(n_)  # cumulative energy counted by the energy term (J)
+
+    # ------------------------------------------------------------------ model and parameters
+    def _build_model(self) -> None:
+        if self.randomization is None and all(p is self.base_rows[0] for p in self.row_params):
+            self.params = self.row_params[0]
+        else:
+            self.params = VsaUT2Params.stack(self.row_params)
+        self.model = VsaUT2Model(self.params)
+
+    def _sample_params(self, rows: np.ndarray) -> None:
+        if self.randomization is None:
+            return
+        for i in rows:
+            self.row_params[int(i)] = self.randomization.sample(self.base_rows[int(i)], self.rngs[int(i)])
+        self._build_model()
+
+    def _row_model(self, i: int) -> VsaUT2Model:
+        return VsaUT2Model(self.row_params[i])
+
+    def _col(self, value: Any) -> np.ndarray:
+        """A parameter (float or ``(n,)``) as an ``(n,)`` array."""
+        return np.broadcast_to(np.asarray(value, dtype=np.float64), (self.n,))
+
+    # ------------------------------------------------------------------ common observations
+    def _common_channels(self) -> list[ObsChannel]:
+        p = self.base_rows[0]
+        w1 = 1.5 * p.pivot_motor.U_max / p.pivot_motor.k_e
+        w2 = 1.5 * p.frame_motor.U_max / p.frame_motor.k_e
+        i1 = 1.25 * p.pivot_motor.I_max
+        i2 = 1.25 * p.frame_motor.I_max
+        return [
+            ObsChannel("q1_hat", "m", 0.0, float(2.0 * p.pivot.D_p),
+                       "pivot position from the pivot motor encoder (eq. 5 on the quantised angle)"),
+            ObsChannel("q2_hat", "rad", -1.0, 1.0, "frame angle from the frame motor encoder (angle / 226.9)"),
+            ObsChannel("r_hat", "rad", -np.pi, np.pi, "output angle, AS5043 absolute encoder (10 bit)"),
+            ObsChannel("w1_hat", "rad/s", -w1, w1, "pivot motor speed estimate (filtered encoder difference)"),
+            ObsChannel("w2_hat", "rad/s", -w2, w2, "frame motor speed estimate"),
+            ObsChannel("r_dot_hat", "rad/s", -50.0, 50.0, "output speed estimate (filtered encoder difference)"),
+            ObsChannel("i1", "A", -i1, i1, "pivot motor current (drive measurement)"),
+            ObsChannel("i2", "A", -i2, i2, "frame motor current (drive measurement)"),
+            ObsChannel("log_K_hat", "ln(N m/rad)", float(np.log(K_FLOOR)), float(np.log(1000.0)),
+                       "stiffness estimate: eq. 6 at (q1_hat, r_hat - q2_hat) in series with the belt"),
+        ]
+
+    def _measure(self, rows: np.ndarray) -> np.ndarray:
+        """Quantised sensor angles ``(len(rows), 3)``: pivot motor, frame motor, output."""
+        x = self.s["x"][rows]
+        th1 = self.motor_encoder.measure(x[:, STATE["th1"]])
+        th2 = self.motor_encoder.measure(x[:, STATE["th2"]])
+        r = self.output_encoder.measure(x[:, STATE["r"]])
+        return np.stack([th1, th2, r], axis=1)
+
+    def _reset_sensors(self, rows: np.ndarray) -> None:
+        self.s["meas"][rows] = self._measure(rows)
+        self.s["vel"][rows] = 0.0
+        x = self.s["x"][rows]
+        self.s["cur"][rows] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
+
+    def _update_sensors(self) -> None:
+        rows = np.arange(self.n)
+        m = self._measure(rows)
+        self.s["vel"] = update_velocity(self.s["meas"], m, self.s["vel"], self.control_dt, self.v_gain)
+        self.s["meas"] = m
+        x = self.s["x"]
+        self.s["cur"] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
+
+    def _common_obs(self, rows: np.ndarray) -> np.ndarray:
+        p = self.params
+        m, v = self.s["meas"][rows], self.s["vel"][rows]
+        n1 = self._col(p.pivot_gearbox.n)[rows]
+        ratio = self._col(p.frame_ratio)[rows]
+        q1 = pivot_position(_rows(p.pivot, rows, self.n), m[:, 0] / n1)
+        q2 = m[:, 1] / ratio
+        K_s = spring_stiffness(_rows(p.lever, rows, self.n), q1, m[:, 2] - q2)
+        K_b = _rows_value(belt_stiffness_at_frame(p.belt), rows, self.n)
+        K = np.maximum(K_s * K_b / (K_s + K_b), K_FLOOR)
+        K = np.where(K_s > 0, K, K_FLOOR)
+        cur = self.s["cur"][rows]
+        return np.stack([q1, q2, m[:, 2], v[:, 0], v[:, 1], v[:, 2], cur[:, 0], cur[:, 1], np.log(K)], axis=1)
+
+    # ------------------------------------------------------------------ physics step
+    def _physics(self, a: np.ndarray, tau_ext: np.ndarray, enabled: np.ndarray | None = None) -> np.ndarray:
+        """Apply the commands for one control step; returns the per-motor electrical energy ``(n, 2)`` (J).
+
+        ``enabled`` (bool ``(n,)``) switches drives off (0 V) where false.
+        """
+        p = self.params
+        m1, m2 = p.pivot_motor, p.frame_motor
+        x = self.s["x"]
+        e_sum = np.zeros((self.n, len(POWER)))
+        if self.control_mode == "voltage":
+            u = a * np.stack([self._col(m1.U_max), self._col(m2.U_max)], axis=1)
+            if enabled is not None:
+                u = np.where(enabled[:, None], u, 0.0)
+            x, e_sum = self.model.step(x, u, tau_ext, self.control_dt)
+        else:
+            i_ref = a * np.stack([self._col(m1.I_max), self._col(m2.I_max)], axis=1)
+            dt = self.control_dt / self.n_inner
+            for _ in range(self.n_inner):
+                u = np.stack([
+                    current_control_voltage(m1, i_ref[:, 0], x[:, STATE["i1"]], x[:, STATE["w1"]],
+                                            self.current_bandwidth_hz),
+                    current_control_voltage(m2, i_ref[:, 1], x[:, STATE["i2"]], x[:, STATE["w2"]],
+                                            self.current_bandwidth_hz),
+                ], axis=1)
+                if enabled is not None:
+                    u = np.where(enabled[:, None], u, 0.0)
+                x, e = self.model.step(x, u, tau_ext, dt, n_sub=1)
+                e_sum = e_sum + e
+        self.s["x"] = x
+        e_m = e_sum[:, [POWER["el_pivot"], POWER["el_frame"]]]
+        i_sq = x[:, [STATE["i1"], STATE["i2"]]] ** 2
+        self.s["i2t"] = i2t_update(self.s["i2t"], i_sq, self.i_nominal, self.control_dt)
+        self._update_sensors()
+        return e_m
+
+    # ------------------------------------------------------------------ failures and margins
+    def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
+        p = self.params
+        x = self.s["x"][rows]
+        q2, phi = x[:, STATE["q2"]], x[:, STATE["r"]] - x[:, STATE["q2"]]
+        th1 = x[:, STATE["th1"]]
+        th1_max = self._col(p.theta1_max)[rows]
+        i_max = np.stack([self._col(p.pivot_motor.I_max), self._col(p.frame_motor.I_max)], axis=1)[rows]
+        lim = i2t_limit(i_max, self.i_nominal, self.i2t_trip_s)
+        return {
+            "margin_frame_stop": self._col(p.q2_max)[rows] - np.abs(q2),
+            "margin_deflection_stop": self._col(p.lever.phi_max)[rows] - np.abs(phi),
+            "margin_i2t": np.min(1.0 - self.s["i2t"][rows] / lim, axis=1),
+            "margin_pivot_stroke": np.minimum(th1, th1_max - th1) / th1_max,
+        }
+
+    def _failures(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        mg = self._margins(np.arange(self.n))
+        fail = (mg["margin_frame_stop"] <= 0) | (mg["margin_deflection_stop"] <= 0) | (mg["margin_i2t"] <= 0)
+        return fail, mg
+
+    def _energy_info(self, e_m: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        charged = self.energy_cost_basis(e_m)
+        self.s["e_el"] += e_m.sum(axis=1)
+        self.s["e_charged"] += charged
+        return charged, {
+            "energy_el": e_m.sum(axis=1), "energy_el_pivot": e_m[:, 0], "energy_el_frame": e_m[:, 1],
+            "energy_charged": charged, "energy_el_total": self.s["e_el"].copy(),
+            "energy_charged_total": self.s["e_charged"].copy(),
+        }
+
+    def _reset_common(self, rows: np.ndarray) -> None:
+        self.s["i2t"][rows] = 0.0
+        self.s["e_el"][rows] = 0.0
+        self.s["e_charged"][rows] = 0.0
+
+    # ------------------------------------------------------------------ drawing
+    def draw_mechanism(self, ax: Any, i: int) -> None:
+        p = self.row_params[i]
+        x = self.s["x"][i]
+        q2, r = x[STATE["q2"]], x[STATE["r"]]
+        q1 = float(pivot_position(p.pivot, x[STATE["th1"]] / p.pivot_gearbox.n))
+        K = float(self.model.stiffness(self.s["x"])[i])
+        ax.set_xlim(-1.4, 1.4)
+        ax.set_ylim(-1.4, 1.4)
+        for lim in (-p.q2_max, p.q2_max):
+            ax.plot([0, 1.25 * np.cos(lim)], [0, 1.25 * np.sin(lim)], color="0.75", lw=0.8, ls="--")
+        ax.add_patch(_circle((0, 0), 0.12, "0.6"))
+        ax.plot([0, np.cos(q2)], [0, np.sin(q2)], color="0.35", lw=6, solid_capstyle="round", label="frame q2")
+        ax.plot([0, 1.2 * np.cos(r)], [0, 1.2 * np.sin(r)], color="tab:blue", lw=3, label="output r")
+        # lever with the pivot: the pivot slides along the frame arm (q1 / 2 D_p of the stroke)
+        f = 0.2 + 0.7 * q1 / (2.0 * p.pivot.D_p)
+        ax.plot([f * np.cos(q2)], [f * np.sin(q2)], "o", color="tab:red", ms=8, label="pivot q1")
+        tip_f = np.array([np.cos(q2), np.sin(q2)])
+        tip_o = np.array([np.cos(r), np.sin(r)])
+        zz = np.linspace(0, 1, 40)
+        perp = np.array([-(tip_o - tip_f)[1], (tip_o - tip_f)[0]])
+        perp = perp / (np.linalg.norm(perp) + 1e-9)
+        pts = tip_f[:, None] + np.outer(tip_o - tip_f, zz) + 0.04 * np.outer(perp, np.sin(zz * 12 * np.pi))
+        ax.plot(pts[0], pts[1], color="tab:green", lw=1)
+        ax.text(-1.35, -1.3, f"K = {K:.3g} N m/rad\nq1 = {1e3 * q1:.1f} mm", fontsize=7)
+        ax.legend(fontsize=6, loc="upper left")
+
+
+def _circle(xy: tuple[float, float], radius: float, color: str) -> Any:
+    from matplotlib.patches import Circle
+
+    return Circle(xy, radius, color=color)
+
+
+def _rows(ps: Any, rows: np.ndarray, n: int) -> Any:
+    """A parameter set restricted to ``rows`` when batched (scalars pass through)."""
+    if ps.batch_size is None:
+        return ps
+    import dataclasses
+
+    changes = {}
+    for f in dataclasses.fields(ps):
+        v = getattr(ps, f.name)
+        if isinstance(v, np.ndarray):
+            changes[f.name] = v[rows]
+    return dataclasses.replace(ps, **changes)
+
+
+def _rows_value(v: Any, rows: np.ndarray, n: int) -> np.ndarray:
+    return np.broadcast_to(np.asarray(v, dtype=np.float64), (n,))[rows]

@@ -1,0 +1,212 @@
+"""``vsa_gym/VsaUT2-PositionStiffness-v0``: track an output position and a stiffness reference on the vsaUT-II."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from vsa_gym.envs.randomization import DomainRandomization
+from vsa_gym.envs.sensing import NoiseSpec
+from vsa_gym.envs.signals import SegmentReference
+from vsa_gym.envs.task import ControlMode, ObsChannel, RegenPolicy, TaskEnv, indent, obs_table
+from vsa_gym.envs.vector import TaskVectorEnv
+from vsa_gym.envs.vsaut2_common import K_FLOOR, VsaUT2Task
+from vsa_gym.vsaut2.model import STATE
+from vsa_gym.vsaut2.params import VsaUT2Params
+
+
+class PositionStiffnessTask(VsaUT2Task):
+    """Batched logic of :class:`VsaUT2PositionStiffnessEnv` (its docstring documents everything)."""
+
+    reward_terms = ("position", "stiffness", "energy", "failure")
+    trace_names = ("r", "r_ref", "ln K", "ln K_ref", "i1", "i2", "tau_ext")
+    trace_units = ("rad", "rad", "ln(N m/rad)", "ln(N m/rad)", "A", "A", "N m")
+    trace_groups = ((0, 1, 6), (2, 3), (4, 5))
+
+    def __init__(
+        self,
+        n: int,
+        *,
+        control_dt: float | None = None,
+        control_mode: ControlMode = "voltage",
+        params: VsaUT2Params | None = None,
+        domain_randomization: DomainRandomization | Mapping[str, tuple[float, float]] | None = None,
+        sensor_noise: NoiseSpec = False,
+        regen: RegenPolicy = "clip",
+        w_position: float = 1.0,
+        w_stiffness: float = 1.0,
+        w_energy: float = 1.0,
+        position_scale: float = 0.2,
+        log_stiffness_scale: float = 1.0,
+        failure_penalty: float = 100.0,
+        position_range: float = 0.4,
+        stiffness_range: tuple[float, float] = (2.0, 300.0),
+        disturbance_max: float = 0.5,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(n, control_dt=control_dt, control_mode=control_mode, params=params,
+                         domain_randomization=domain_randomization, sensor_noise=sensor_noise, regen=regen, **kwargs)
+        self.w = {"position": float(w_position), "stiffness": float(w_stiffness), "energy": float(w_energy)}
+        self.position_scale, self.log_stiffness_scale = float(position_scale), float(log_stiffness_scale)
+        self.failure_penalty = float(failure_penalty)
+        q2_max = float(np.min(self.base_rows[0].q2_max))
+        if not 0 < position_range < q2_max:
+            raise ValueError(f"position_range must lie in (0, q2_max = {q2_max:.3f}) rad, got {position_range}")
+        lo, hi = stiffness_range
+        if not 0 < lo < hi:
+            raise ValueError(f"stiffness_range must be (low, high) with 0 < low < high, got {stiffness_range}")
+        self.ref_r = SegmentReference("ref_r", -position_range, position_range, freq=(0.1, 1.5))
+        self.ref_k = SegmentReference("ref_k", float(np.log(lo)), float(np.log(hi)), freq=(0.1, 1.0))
+        self.dist = SegmentReference("dist", -abs(disturbance_max), abs(disturbance_max) + 1e-12,
+                                     kinds=("step", "ramp"), zero_prob=0.5)
+        for sig in (self.ref_r, self.ref_k, self.dist):
+            sig.alloc(self.s, self.n)
+        self.s["r_ref"] = np.zeros(self.n)
+        self.s["k_ref"] = np.zeros(self.n)
+        self.s["tau"] = np.zeros(self.n)
+        self._channels = tuple(self._common_channels() + [
+            ObsChannel("r_ref", "rad", -position_range, position_range, "output position reference"),
+            ObsChannel("log_K_ref", "ln(N m/rad)", float(np.log(lo)), float(np.log(hi)),
+                       "stiffness reference (natural log)"),
+            ObsChannel("r_err", "rad", -np.pi - position_range, np.pi + position_range, "r_ref - r_hat"),
+            ObsChannel("log_K_err", "ln(N m/rad)", float(np.log(lo) - np.log(1000.0)),
+                       float(np.log(hi) - np.log(K_FLOOR)), "log_K_ref - log_K_hat"),
+        ])
+        self._alloc(len(self._channels))
+
+    @property
+    def obs_channels(self) -> tuple[ObsChannel, ...]:
+        return self._channels
+
+    def _reset_rows(self, rows: np.ndarray) -> None:
+        self._sample_params(rows)
+        self._reset_common(rows)
+        for i in rows:
+            rng = self.rngs[int(i)]
+            p = self.row_params[int(i)]
+            q1 = float(rng.uniform(0.1, 0.9)) * float(p.q1_max)
+            q2 = float(rng.uniform(-0.5, 0.5)) * float(p.q2_max)
+            self.s["x"][i] = self._row_model(int(i)).initial_state(1, q1=q1, q2=q2)[0]
+        for sig in (self.ref_r, self.ref_k, self.dist):
+            sig.reset(self.s, rows, self.rngs)
+        zero = np.zeros(len(rows))
+        self.s["r_ref"][rows] = self.ref_r.value(self.s, zero, rows)
+        self.s["k_ref"][rows] = self.ref_k.value(self.s, zero, rows)
+        self.s["tau"][rows] = 0.0  # no disturbance at the start
+        self._reset_sensors(rows)
+
+    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+        e_m = self._physics(a, self.s["tau"])
+        t_new = self.s["t"] + self.control_dt
+        x = self.s["x"]
+        logK = np.log(np.maximum(self.model.stiffness(x), K_FLOOR))
+        e_r = x[:, STATE["r"]] - self.s["r_ref"]
+        e_k = logK - self.s["k_ref"]
+        charged, info = self._energy_info(e_m)
+        fail, margins = self._failures()
+        terms = {
+            "position": -self.w["position"] * (e_r / self.position_scale) ** 2,
+            "stiffness": -self.w["stiffness"] * (e_k / self.log_stiffness_scale) ** 2,
+            "energy": -self.w["energy"] * charged,
+            "failure": np.where(fail, -self.failure_penalty, 0.0),
+        }
+        info.update(margins)
+        info.update({"position_error": e_r, "log_stiffness_error": e_k, "tau_ext": self.s["tau"].copy()})
+        # references for the next step (what the next state is compared with)
+        self.s["r_ref"] = self.ref_r.advance(self.s, t_new, self.rngs)
+        self.s["k_ref"] = self.ref_k.advance(self.s, t_new, self.rngs)
+        self.s["tau"] = self.dist.advance(self.s, t_new, self.rngs)
+        return terms, fail, info
+
+    def _observe(self, rows: np.ndarray) -> np.ndarray:
+        c = self._common_obs(rows)
+        r_ref, k_ref = self.s["r_ref"][rows], self.s["k_ref"][rows]
+        return np.concatenate([c, np.stack([r_ref, k_ref, r_ref - c[:, 2], k_ref - c[:, 8]], axis=1)], axis=1)
+
+    def _traces(self, rows: np.ndarray) -> np.ndarray:
+        x = self.s["x"][rows]
+        K = np.maximum(self.model.stiffness(self.s["x"])[rows], K_FLOOR)
+        return np.stack([x[:, STATE["r"]], self.s["r_ref"][rows], np.log(K), self.s["k_ref"][rows],
+                         x[:, STATE["i1"]], x[:, STATE["i2"]], self.s["tau"][rows]], axis=1)
+
+
+_OBS_DOC = indent(obs_table(PositionStiffnessTask(1).obs_channels))
+
+
+class VsaUT2PositionStiffnessEnv(TaskEnv):
+    __doc__ = f"""Track an output position and an output stiffness reference with the vsaUT-II.
+
+    ## Description
+    The vsaUT-II (Groothuis et al.) sets its output stiffness by moving the pivot of a
+    spring-loaded lever (pivot motor, RE-20 + GP26B + planetary straight-line
+    mechanism) and its equilibrium position by turning the frame (frame motor, RE-40
+    + GP42C + belt).  The output link (test bar) carries an external torque
+    disturbance: random steps and ramps up to ``disturbance_max`` N m (half of the
+    segments hold zero).  References are chains of random steps, ramps and sines:
+    the position inside ``+-position_range`` rad, the stiffness log-uniformly inside
+    ``stiffness_range`` N m/rad.  Physics: :class:`vsa_gym.vsaut2.model.VsaUT2Model`.
+
+    ## Action space
+    ``Box(-1, 1, (2,), float32)``: [pivot motor, frame motor].  ``control_mode="voltage"``:
+    ``u = a U_max`` (24 V); ``"current"``: ``i_ref = a I_max`` (12 A) tracked by a current-mode
+    amplifier at 10 kHz (see :mod:`vsa_gym.envs.vsaut2_common`).  Finite out-of-range
+    components are clipped (``info["action_clipped"]``); NaN or inf raise ``ValueError``
+    naming the component, and nothing is changed.
+
+    ## Observation space
+    ``Box(low, high, (13,), float32)``, built only from sensors (values clipped to the bounds):
+
+{_OBS_DOC}
+
+    ## Rewards
+    ``reward = position + stiffness + energy + failure`` with (true state after the step)::
+
+        position  = -w_position  ((r - r_ref) / position_scale)^2              (position_scale = 0.2 rad)
+        stiffness = -w_stiffness ((ln K - ln K_ref) / log_stiffness_scale)^2   (K: eq. 6 in series with the belt,
+                                                                               floored at 0.1 N m/rad)
+        energy    = -w_energy E_el                                             (J over the step)
+        failure   = -failure_penalty on a failure step, else 0
+
+    ``E_el`` is the core's integrated electrical energy of both motors over the step.
+    Regeneration (``regen``): ``"clip"`` (default) charges ``max(E_motor, 0)`` per motor and
+    step -- the supply cannot take energy back; ``"count"`` charges the signed sum, so
+    regenerated energy is credited.  ``info`` carries every term (``reward_<term>``),
+    ``energy_el`` (signed), ``energy_charged``, their episode totals, and the
+    constraint margins ``margin_frame_stop``, ``margin_deflection_stop`` (rad),
+    ``margin_i2t`` (fraction), ``margin_pivot_stroke`` (fraction).
+
+    ## Starting state
+    At rest, pivot uniform in 10-90 % of its stroke ``q1_max``, frame and output at the
+    same angle uniform in ``+-q2_max / 2``, belt unstretched, no disturbance.
+
+    ## Episode end
+    ``terminated``: frame end stop contact ``|q2| >= q2_max``, deflection end stop contact
+    ``|phi| >= phi_max``, or an I^2 t trip (4 A nominal, 12 A for 2 s).  ``truncated``: the
+    registry's time limit (2500 steps = 5 s at the default ``control_dt``).
+
+    ## Arguments
+    ``gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", control_dt=2e-3, control_mode="voltage",
+    params=VsaUT2Params(), domain_randomization=None, sensor_noise=False, regen="clip",
+    render_mode=None, w_position=1.0, w_stiffness=1.0, w_energy=1.0, position_scale=0.2,
+    log_stiffness_scale=1.0, failure_penalty=100.0, position_range=0.4, stiffness_range=(2, 300),
+    disturbance_max=0.5, current_bandwidth_hz=1000.0, i_nominal=4.0, i2t_trip_s=2.0,
+    velocity_cutoff_hz=50.0)``.  ``params`` is any (e.g. identified) :class:`VsaUT2Params`;
+    ``domain_randomization`` maps dotted parameter paths to ``(low, high)`` ranges resampled on
+    reset (:mod:`vsa_gym.envs.randomization`); ``sensor_noise``: ``False`` / ``True`` / scale /
+    ``{{"current": sigma_A}}``.  ``control_dt`` defaults to 2 ms: the fastest mechanical mode
+    (output on the belt-limited 948 N m/rad, about 47 Hz) gets > 10 samples per period and the
+    electrical modes (0.1-0.3 ms) are resolved by the core's sub-steps at any rate.
+
+    ## Version history
+    * v0: initial release.
+    """
+
+    task_cls = PositionStiffnessTask
+
+
+class VsaUT2PositionStiffnessVectorEnv(TaskVectorEnv):
+    """Native vector version of :class:`VsaUT2PositionStiffnessEnv` (one batched core call per step)."""
+
+    task_cls = PositionStiffnessTask

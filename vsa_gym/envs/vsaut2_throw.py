@@ -1,0 +1,170 @@
+"""``vsa_gym/VsaUT2-Throw-v0``: the elastic-energy throwing benchmark on the vsaUT-II."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from vsa_gym.envs.randomization import DomainRandomization
+from vsa_gym.envs.sensing import NoiseSpec
+from vsa_gym.envs.task import ControlMode, ObsChannel, RegenPolicy, TaskEnv, indent, obs_table
+from vsa_gym.envs.vector import TaskVectorEnv
+from vsa_gym.envs.vsaut2_common import K_FLOOR, VsaUT2Task
+from vsa_gym.vsaut2.model import STATE
+from vsa_gym.vsaut2.params import VsaUT2Params
+
+
+class ThrowTask(VsaUT2Task):
+    """Batched logic of :class:`VsaUT2ThrowEnv` (its docstring documents everything)."""
+
+    reward_terms = ("release", "failure")
+    trace_names = ("r", "r_dot", "ln K", "E_left", "i1", "i2")
+    trace_units = ("rad", "rad/s", "ln(N m/rad)", "J", "A", "A")
+    trace_groups = ((0, 1), (2, 3), (4, 5))
+
+    def __init__(
+        self,
+        n: int,
+        *,
+        control_dt: float | None = None,
+        control_mode: ControlMode = "voltage",
+        params: VsaUT2Params | None = None,
+        domain_randomization: DomainRandomization | Mapping[str, tuple[float, float]] | None = None,
+        sensor_noise: NoiseSpec = False,
+        regen: RegenPolicy = "clip",
+        release_angle: float = 0.3,
+        energy_budget: float = 5.0,
+        horizon_s: float = 1.0,
+        initial_q1_fraction: float = 0.5,
+        failure_penalty: float = 1.0,
+        **kwargs: Any,
+    ) -> None:
+        super().__init__(n, control_dt=control_dt, control_mode=control_mode, params=params,
+                         domain_randomization=domain_randomization, sensor_noise=sensor_noise, regen=regen, **kwargs)
+        if not 0.0 < release_angle < np.pi / 2:
+            raise ValueError(f"release_angle must lie in (0, pi/2) rad, got {release_angle}")
+        if not energy_budget > 0.0:
+            raise ValueError(f"energy_budget must be > 0 J, got {energy_budget}")
+        if not 0.0 <= initial_q1_fraction <= 1.0:
+            raise ValueError(f"initial_q1_fraction must lie in [0, 1], got {initial_q1_fraction}")
+        self.release_angle, self.energy_budget = float(release_angle), float(energy_budget)
+        self.horizon_s, self.q1_frac = float(horizon_s), float(initial_q1_fraction)
+        self.failure_penalty = float(failure_penalty)
+        self._channels = tuple(self._common_channels() + [
+            ObsChannel("energy_left", "J", 0.0, self.energy_budget, "energy budget not yet drawn"),
+            ObsChannel("time_left", "s", 0.0, self.horizon_s, "time until the throw window closes"),
+        ])
+        self._alloc(len(self._channels))
+
+    @property
+    def obs_channels(self) -> tuple[ObsChannel, ...]:
+        return self._channels
+
+    def _reset_rows(self, rows: np.ndarray) -> None:
+        self._sample_params(rows)
+        self._reset_common(rows)
+        for i in rows:
+            p = self.row_params[int(i)]
+            self.s["x"][i] = self._row_model(int(i)).initial_state(1, q1=self.q1_frac * float(p.q1_max))[0]
+        self._reset_sensors(rows)
+
+    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+        r_before = self.s["x"][:, STATE["r"]].copy()
+        enabled = self.s["e_charged"] < self.energy_budget
+        e_m = self._physics(a, np.zeros(self.n), enabled)
+        _, info = self._energy_info(e_m)
+        x = self.s["x"]
+        r, r_dot = x[:, STATE["r"]], x[:, STATE["r_dot"]]
+        released = (r_before < self.release_angle) & (r >= self.release_angle)
+        fail, margins = self._failures()
+        fail = fail & ~released
+        terms = {
+            "release": np.where(released, np.maximum(r_dot, 0.0), 0.0),
+            "failure": np.where(fail, -self.failure_penalty, 0.0),
+        }
+        info.update(margins)
+        info.update({"released": released, "release_speed": np.where(released, r_dot, 0.0),
+                     "drive_enabled": enabled, "margin_energy": self.energy_budget - self.s["e_charged"]})
+        return terms, released | fail, info
+
+    def _observe(self, rows: np.ndarray) -> np.ndarray:
+        c = self._common_obs(rows)
+        left = np.maximum(self.energy_budget - self.s["e_charged"][rows], 0.0)
+        t_left = np.maximum(self.horizon_s - self.s["t"][rows], 0.0)
+        return np.concatenate([c, left[:, None], t_left[:, None]], axis=1)
+
+    def _traces(self, rows: np.ndarray) -> np.ndarray:
+        x = self.s["x"][rows]
+        K = np.maximum(self.model.stiffness(self.s["x"])[rows], K_FLOOR)
+        return np.stack([x[:, STATE["r"]], x[:, STATE["r_dot"]], np.log(K),
+                         self.energy_budget - self.s["e_charged"][rows], x[:, STATE["i1"]], x[:, STATE["i2"]]],
+                        axis=1)
+
+    def draw_mechanism(self, ax: Any, i: int) -> None:
+        super().draw_mechanism(ax, i)
+        a = self.release_angle
+        ax.plot([0, 1.35 * np.cos(a)], [0, 1.35 * np.sin(a)], color="tab:orange", lw=1, ls=":", label="release")
+        ax.legend(fontsize=6, loc="upper left")
+
+
+_OBS_DOC = indent(obs_table(ThrowTask(1).obs_channels))
+
+
+class VsaUT2ThrowEnv(TaskEnv):
+    __doc__ = f"""Throw: the highest output speed at a release angle, in fixed time and with a fixed energy budget.
+
+    ## Description
+    The classic benchmark for variable stiffness actuators that store elastic energy
+    (Haddadin et al.; Braun et al.): starting from rest, the vsaUT-II must swing its
+    output link (the test bar) through the release angle ``release_angle`` (0.3 rad)
+    as fast as possible.  Both motors are free: the frame can wind up and swing, and
+    the stiffness may vary during the throw (pumping energy into the springs).  The
+    release happens when ``r`` first crosses the release angle upward.  The time window
+    is the registry's time limit (``horizon_s`` = 1 s = 500 steps at 2 ms); the energy
+    budget ``energy_budget`` (5 J) caps the electrical energy drawn (counted as in
+    ``regen``): once spent, both drives are switched off (0 V) for the rest of the episode.
+
+    ## Action space
+    ``Box(-1, 1, (2,), float32)``: [pivot motor, frame motor], as in
+    ``VsaUT2-PositionStiffness-v0`` (voltage ``a U_max`` or current ``a I_max``); finite
+    out-of-range components are clipped, NaN/inf raise ``ValueError``.
+
+    ## Observation space
+    ``Box(low, high, (11,), float32)``, from sensors (clipped to the bounds):
+
+{_OBS_DOC}
+
+    ## Rewards
+    ``reward = release + failure``: ``release = max(r_dot, 0)`` (rad/s, true output speed) on
+    the release step, else 0; ``failure = -failure_penalty`` (1) on a failure step.  The energy
+    enters as a budget, not as a cost; ``info`` still carries ``energy_el``, ``energy_charged``,
+    their totals, ``margin_energy`` (J left), the constraint margins, ``released`` and
+    ``release_speed``.
+
+    ## Starting state
+    At rest, pivot at ``initial_q1_fraction`` (0.5) of its stroke, frame and output at 0.
+
+    ## Episode end
+    ``terminated``: release (success), or a failure -- frame end stop contact, deflection end
+    stop contact, I^2 t trip.  ``truncated``: the time limit (no release within the window).
+
+    ## Arguments
+    ``control_dt`` (2 ms), ``control_mode``, ``params``, ``domain_randomization``, ``sensor_noise``,
+    ``regen`` ("clip"), ``render_mode``, ``release_angle`` (rad), ``energy_budget`` (J), ``horizon_s``
+    (s, only for the ``time_left`` observation: set it with the time limit),
+    ``initial_q1_fraction``, ``failure_penalty``, and the drive options of
+    :class:`vsa_gym.envs.vsaut2_common.VsaUT2Task`.
+
+    ## Version history
+    * v0: initial release.
+    """
+
+    task_cls = ThrowTask
+
+
+class VsaUT2ThrowVectorEnv(TaskVectorEnv):
+    """Native vector version of :class:`VsaUT2ThrowEnv`."""
+
+    task_cls = ThrowTask
