@@ -261,6 +261,8 @@ def _n_sub(p: ElpasParams) -> int:
 
 REVERSAL_REFINE = 4
 """Substep refinement for the rows whose motor speed changes sign within a control step."""
+REVERSAL_RATE_H = 0.01
+"""Refine a reversal only if the bristle rate times the substep exceeds this (slow creep needs no refinement)."""
 
 RhsFn = Callable[[ElpasParams, np.ndarray, np.ndarray, Extensions], tuple[np.ndarray, np.ndarray]]
 
@@ -320,12 +322,17 @@ def _advance(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarr
 
     ``|omega_m|`` in the bristle equation has a kink at zero speed; a substep
     containing the reversal loses two orders of accuracy.  Those rows (sign
-    change of ``omega`` over the step) are recomputed with ``REVERSAL_REFINE``
+    change of ``omega`` over the step, with ``lambda h > REVERSAL_RATE_H`` at
+    either end) are recomputed with ``REVERSAL_REFINE``
     times more substeps, which keeps the Radau error below 1e-3 at little cost.
     """
     n_sub = _n_sub(p)
     x_new, energy = _integrate(p, rhs_fn, x, rate_inputs, extensions, n_sub)
-    rev = np.sign(x[:, OMEGA]) != np.sign(x_new[:, OMEGA])
+    # only reversals through bristle rates that matter within a substep (not presliding creep)
+    h = float(p.numerics.dt) / n_sub
+    fast = np.maximum(bristle_rate(p.friction, p.drive.N * x[:, OMEGA]),
+                      bristle_rate(p.friction, p.drive.N * x_new[:, OMEGA])) * h > REVERSAL_RATE_H
+    rev = (np.sign(x[:, OMEGA]) != np.sign(x_new[:, OMEGA])) & fast
     if np.any(rev):
         rows = np.flatnonzero(rev)
         p_rows = take_rows(p, rows) if p.batch_size is not None else p
