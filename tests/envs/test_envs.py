@@ -1,0 +1,272 @@
+"""Tests of the registered Gymnasium environments (single, native vector, SB3 adapter)."""
+
+from __future__ import annotations
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import vsa_gym  # noqa: F401  (registers the ids)
+from vsa_gym.envs import ENV_IDS
+from vsa_gym.vsaut2.model import POWER, VsaUT2Model
+
+IDS = list(ENV_IDS)
+
+
+def _actions(env_id: str, n_steps: int, seed: int = 0, n: int | None = None) -> np.ndarray:
+    m = 2 if "VsaUT2" in env_id else 1
+    shape = (n_steps, m) if n is None else (n_steps, n, m)
+    return np.random.default_rng(seed).uniform(-1.0, 1.0, shape)
+
+
+def _rollout(env: gym.Env, actions: np.ndarray) -> tuple[list[np.ndarray], list[float], list[dict]]:
+    obs, rews, infos = [], [], []
+    for a in actions:
+        o, r, term, trunc, info = env.step(a)
+        obs.append(o)
+        rews.append(r)
+        infos.append(info)
+        if term or trunc:
+            o, _ = env.reset()
+            obs.append(o)
+    return obs, rews, infos
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_checkers_pass(env_id: str) -> None:
+    env = gym.make(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any checker warning fails the test
+        gym_check_env(env.unwrapped, skip_render_check=True)
+        sb3_check_env(gym.make(env_id), warn=True)
+    assert env.spec is not None and env.spec.max_episode_steps is not None
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_same_seed_same_rollout_also_after_unseeded_reset(env_id: str) -> None:
+    acts = _actions(env_id, 40)
+    runs = []
+    for seed in (7, 7, 8):
+        env = gym.make(env_id, sensor_noise=True)  # noise makes even the deterministic-start Throw seed-dependent
+        o0, _ = env.reset(seed=seed)
+        obs1, r1, _ = _rollout(env, acts[:20])
+        o1, _ = env.reset()  # no seed: continues the seeded stream
+        obs2, r2, _ = _rollout(env, acts[20:])
+        runs.append((np.concatenate([o0[None], np.array(obs1), o1[None], np.array(obs2)]), np.array(r1 + r2)))
+    np.testing.assert_array_equal(runs[0][0], runs[1][0])
+    np.testing.assert_array_equal(runs[0][1], runs[1][1])
+    assert not np.array_equal(runs[0][0], runs[2][0]), "a different seed must give a different episode"
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_vector_equals_single_envs(env_id: str) -> None:
+    n, limit, steps = 3, 15, 25
+    acts = _actions(env_id, steps, seed=1, n=n)
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit)
+    vo, _ = venv.reset(seed=100)
+    v_obs, v_rew, v_e = [vo], [], []
+    for k in range(steps):
+        o, r, term, trunc, info = venv.step(acts[k])
+        v_obs.append(o)
+        v_rew.append(r)
+        v_e.append(info["energy_el"])
+    assert np.any(trunc) or k >= limit  # the time limit was crossed (autoreset exercised)
+    for i in range(n):
+        env = gym.make(env_id, max_episode_steps=limit)
+        o, _ = env.reset(seed=100 + i)
+        np.testing.assert_allclose(o, v_obs[0][i], rtol=0, atol=1e-12)
+        done = False
+        for k in range(steps):
+            if done:  # next-step autoreset of the vector env
+                o, _ = env.reset()
+                r, e = 0.0, 0.0
+                done = False
+            else:
+                o, r, term, trunc, info = env.step(acts[k, i])
+                e = info["energy_el"]
+                done = term or trunc
+            np.testing.assert_allclose(o, v_obs[k + 1][i], rtol=1e-12, atol=1e-12)
+            assert abs(r - v_rew[k][i]) <= 1e-12 * max(1.0, abs(r))
+            assert abs(e - v_e[k][i]) <= 1e-12 * max(1.0, abs(e))
+
+
+def test_energy_term_is_core_integral_of_electrical_power_vsaut2() -> None:
+    env = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", regen="count", w_energy=2.0)
+    env.reset(seed=3)
+    task = env.unwrapped.task
+    model = VsaUT2Model(task.params)
+    total_env, total_ref = 0.0, 0.0
+    for a in _actions("vsa_gym/VsaUT2-PositionStiffness-v0", 30, seed=4):
+        x0, tau = task.s["x"].copy(), task.s["tau"].copy()
+        _, _, term, _, info = env.step(a)
+        u = np.clip(a, -1, 1) * np.array([task.params.pivot_motor.U_max, task.params.frame_motor.U_max])
+        # the core's own integral of u_eff i over the step (exact bookkeeping) ...
+        _, e = model.step(x0, u[None], tau, task.control_dt)
+        e_core = e[0, POWER["el_pivot"]] + e[0, POWER["el_frame"]]
+        assert info["energy_el"] == pytest.approx(e_core, rel=1e-12, abs=1e-15)
+        # ... and an independent 10x finer integral (the core's accuracy bound is 1e-3)
+        _, e = model.step(x0, u[None], tau, task.control_dt, n_sub=200)
+        e_ref = e[0, POWER["el_pivot"]] + e[0, POWER["el_frame"]]
+        assert info["reward_energy"] == pytest.approx(-2.0 * info["energy_el"], rel=1e-12)
+        assert info["energy_el"] == pytest.approx(e_ref, rel=1e-3, abs=1e-7)
+        total_env += info["energy_el"]
+        total_ref += e_ref
+        assert not term
+    assert info["energy_el_total"] == pytest.approx(total_env, rel=1e-12)
+    assert total_env == pytest.approx(total_ref, rel=1e-3)
+    assert abs(total_env) > 1e-3  # the check is not vacuous
+
+
+def test_energy_term_elpas_and_regen_policy() -> None:
+    from vsa_gym.elpas import model as em
+
+    for regen in ("count", "clip"):
+        env = gym.make("vsa_gym/ELPAS-ForceTracking-v0", regen=regen, w_energy=1e-3)
+        env.reset(seed=5)
+        task = env.unwrapped.task
+        fine = task.params.replace(numerics=task.params.numerics.replace(n_sub=40.0))
+        saw_regen = False
+        for k, a in enumerate(_actions("vsa_gym/ELPAS-ForceTracking-v0", 60, seed=6)):
+            a = np.array([np.sin(0.3 * k)])  # reversals: motoring and regenerating steps
+            x0 = task.s["x"].copy()
+            t_new = task.s["t"] + task.control_dt
+            alpha_end = task.alpha_sig.value(task.s, t_new)
+            _, _, _, _, info = env.step(a)
+            inp = np.array([[a[0] * task.params.motor.U_max, alpha_end[0]]])
+            _, e = em.step_rig(task.params, x0, inp)  # the core's integral: exact bookkeeping
+            assert info["energy_el"] == pytest.approx(e[0, em.P_EL], rel=1e-12, abs=1e-15)
+            _, e = em.step_rig(fine, x0, inp)  # independent 10x finer integral
+            assert info["energy_el"] == pytest.approx(e[0, em.P_EL], rel=1e-3, abs=1e-6)
+            charged = info["energy_el"] if regen == "count" else max(info["energy_el"], 0.0)
+            assert info["reward_energy"] == pytest.approx(-1e-3 * charged / task.control_dt, rel=1e-12, abs=1e-15)
+            saw_regen |= info["energy_el"] < 0
+        assert saw_regen, "the sequence must include regenerating steps for the policy check to mean anything"
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_bad_actions_raise_or_clip_without_corrupting_state(env_id: str) -> None:
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    task = env.unwrapped.task
+    before = {k: v.copy() for k, v in task.s.items()}
+    m = env.action_space.shape[0]
+    for bad in (np.nan, np.inf, -np.inf):
+        a = np.zeros(m)
+        a[m - 1] = bad
+        with pytest.raises(ValueError, match=f"component {m - 1}"):
+            env.step(a)
+        for k, v in before.items():
+            np.testing.assert_array_equal(task.s[k], v, err_msg=f"state {k!r} changed by a rejected action")
+    with pytest.raises(ValueError):
+        env.step(np.zeros(m + 1))
+    # out-of-range values are clipped: same result as the box edge
+    twin = gym.make(env_id)
+    twin.reset(seed=0)
+    big = np.full(m, 7.5)
+    big[0] = -3.0
+    o1, r1, _, _, i1 = env.step(big)
+    o2, r2, _, _, i2 = twin.step(np.clip(big, -1, 1))
+    np.testing.assert_array_equal(o1, o2)
+    assert r1 == r2 and i1["action_clipped"] and not i2["action_clipped"]
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_render_rgb_array_shape(env_id: str) -> None:
+    env = gym.make(env_id, render_mode="rgb_array")
+    env.reset(seed=0)
+    for a in _actions(env_id, 5):
+        env.step(a)
+    frame = env.render()
+    h, w = env.unwrapped.render_size
+    assert isinstance(frame, np.ndarray) and frame.shape == (h, w, 3) and frame.dtype == np.uint8
+    assert frame.std() > 1.0  # something was drawn
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", IDS)
+@pytest.mark.parametrize("policy", ["random", "zero"])
+def test_10000_steps_without_nan(env_id: str, policy: str) -> None:
+    n, steps = 50, 200  # 10 000 env steps through the native vector env
+    venv = gym.make_vec(env_id, num_envs=n)
+    obs, _ = venv.reset(seed=11)
+    rng = np.random.default_rng(0)
+    ends = 0
+    for _ in range(steps):
+        a = rng.uniform(-1, 1, venv.action_space.shape) if policy == "random" else np.zeros(venv.action_space.shape)
+        obs, r, term, trunc, info = venv.step(a)
+        assert np.all(np.isfinite(obs)) and np.all(np.isfinite(r))
+        assert np.all(np.isfinite(venv.unwrapped.task.s["x"]))
+        ends += int(np.sum(term | trunc))
+    assert venv.observation_space.contains(obs)
+    # and the single env on the same id
+    env = gym.make(env_id)
+    env.reset(seed=1)
+    for _ in range(200):
+        a = env.action_space.sample() if policy == "random" else np.zeros(env.action_space.shape)
+        o, r, term, trunc, _ = env.step(a)
+        assert np.all(np.isfinite(o)) and np.isfinite(r)
+        if term or trunc:
+            env.reset()
+
+
+def test_info_reward_components_sum_to_reward() -> None:
+    for env_id in IDS:
+        env = gym.make(env_id)
+        env.reset(seed=2)
+        for a in _actions(env_id, 10):
+            _, r, term, trunc, info = env.step(a)
+            comps = [v for k, v in info.items() if k.startswith("reward_")]
+            assert len(comps) >= 2
+            assert sum(comps) == pytest.approx(r, rel=1e-12, abs=1e-12)
+            assert any(k.startswith("margin_") for k in info) and "energy_el" in info
+            if term or trunc:
+                break
+
+
+def test_domain_randomization_and_params_plug_in() -> None:
+    from vsa_gym.vsaut2.params import VsaUT2Params
+
+    env = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", domain_randomization={"I_o": (0.005, 0.02)})
+    env.reset(seed=0)
+    a = env.unwrapped.task.params.I_o
+    env.reset(seed=1)
+    b = env.unwrapped.task.params.I_o
+    assert 0.005 <= float(np.asarray(a).ravel()[0]) <= 0.02 and not np.array_equal(a, b)
+    with pytest.raises(ValueError, match="not a parameter"):
+        gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", domain_randomization={"nonsense": (0, 1)})
+    heavy = VsaUT2Params().replace(I_o=0.05)
+    env2 = gym.make("vsa_gym/VsaUT2-Throw-v0", params=heavy)
+    env2.reset(seed=0)
+    assert env2.unwrapped.task.params.I_o == 0.05
+
+
+def test_current_mode_runs_and_differs_from_voltage_mode() -> None:
+    for env_id in ("vsa_gym/VsaUT2-Throw-v0", "vsa_gym/ELPAS-ForceTracking-v0"):
+        outs = []
+        for mode in ("voltage", "current"):
+            env = gym.make(env_id, control_mode=mode)
+            env.reset(seed=0)
+            for a in _actions(env_id, 20):
+                o, *_ = env.step(a * 0.2)
+            outs.append(o)
+            assert np.all(np.isfinite(o))
+        assert not np.allclose(outs[0], outs[1])
+
+
+def test_sb3_adapter_and_five_line_training() -> None:
+    from stable_baselines3 import PPO
+
+    from vsa_gym.envs.sb3 import make_sb3_vec_env
+
+    venv = make_sb3_vec_env("vsa_gym/ELPAS-ForceTracking-v0", n_envs=4, seed=0, max_episode_steps=10)
+    obs = venv.reset()
+    assert obs.shape == (4, 8)
+    for _ in range(10):
+        obs, r, done, infos = venv.step(np.zeros((4, 1)))
+    assert done.all() and all("terminal_observation" in d and d["TimeLimit.truncated"] for d in infos)
+    env = gym.make("vsa_gym/ELPAS-ForceTracking-v0")
+    PPO("MlpPolicy", env, n_steps=64, batch_size=32, n_epochs=1, seed=0).learn(128)
