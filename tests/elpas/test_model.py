@@ -1,5 +1,6 @@
 """Rig and vehicle models: Radau reference, energy balance, batching, extensions, input checks."""
 
+import functools
 from collections.abc import Callable
 
 import numpy as np
@@ -32,7 +33,7 @@ def _rig_reference(p: ElpasParams, u: np.ndarray, alpha: np.ndarray, x0: np.ndar
         inp = np.array([[u[k], (alpha[k] - a_prev[k]) / DT]])
         return lambda xx: em.rhs_rig(p, xx, inp)
 
-    return reference_solution(factory, x0[0], DT, u.size, rtol=1e-8, atol=1e-11)[0]
+    return reference_solution(factory, x0[0], DT, u.size, rtol=1e-7, atol=1e-10)[0]
 
 
 def _worst_relative_error(x: np.ndarray, ref: np.ndarray) -> float:
@@ -54,12 +55,18 @@ def _rig_cases() -> list[tuple[str, np.ndarray, np.ndarray, float]]:
     ]
 
 
-@pytest.mark.parametrize("case", range(3))
-def test_rig_matches_radau_reference(case: int) -> None:
+@functools.cache
+def _rig_case_reference(case: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(u, alpha, x0, Radau states) of one rig case, computed once per session."""
     _, u, alpha, g0 = _rig_cases()[case]
     x0 = em.initial_state_rig(P, 1, gamma=g0, alpha=0.0 if case != 1 else alpha[0])
+    return u, alpha, x0, _rig_reference(P, u, alpha, x0)
+
+
+@pytest.mark.parametrize("case", range(3))
+def test_rig_matches_radau_reference(case: int) -> None:
+    u, alpha, x0, ref = _rig_case_reference(case)
     xs, _ = _rig_run(P, u, alpha, x0)
-    ref = _rig_reference(P, u, alpha, x0)
     assert _worst_relative_error(xs, ref) <= 1e-3
 
 
@@ -72,9 +79,7 @@ def test_substeps_are_inside_rk4_stability_and_needed() -> None:
     presliding = np.sqrt(d.N**2 * P.friction.s0 / d.J_r)  # 273 rad/s
     assert h * max(electrical, electromech, presliding) < 0.2
     # and a coarser step is measurably worse on the hardest case
-    _, u, alpha, g0 = _rig_cases()[0]
-    x0 = em.initial_state_rig(P, 1, gamma=g0)
-    ref = _rig_reference(P, u, alpha, x0)
+    u, alpha, x0, ref = _rig_case_reference(0)
     coarse = P.replace(numerics=P.numerics.replace(n_sub=1.0))
     err_coarse = _worst_relative_error(_rig_run(coarse, u, alpha, x0)[0], ref)
     err = _worst_relative_error(_rig_run(P, u, alpha, x0)[0], ref)
@@ -135,7 +140,7 @@ def test_vehicle_matches_radau_reference(case: int) -> None:
         inp = np.array([[u[k], (road[k] - r_prev[k]) / DT]])
         return lambda xx: em.rhs_vehicle(P, xx, inp)
 
-    ref = reference_solution(factory, x0[0], DT, u.size, rtol=1e-8, atol=1e-11)[0]
+    ref = reference_solution(factory, x0[0], DT, u.size, rtol=1e-7, atol=1e-10)[0]
     assert _worst_relative_error(xs[:, 0], ref) <= 1e-3
 
 
@@ -147,7 +152,7 @@ def test_vehicle_energy_balance_and_tyre_lift_off() -> None:
     u = 10.0 * np.sin(2 * np.pi * 6 * t)
     x0 = em.initial_state_vehicle(P, 1)
     xs, es = _vehicle_run(P, u, road, x0)
-    tyre = np.array([em.tyre_force_unchecked(P, x)[0] for x in xs])
+    tyre = np.array([em.tyre_force(P, x)[0] for x in xs])
     assert np.min(tyre) == 0.0 and np.max(tyre) > 0.0
     e = es[:, 0].sum(axis=0)
     stored = em.stored_energy(P, xs[-1], True)[0] - em.stored_energy(P, xs[0], True)[0]
@@ -158,17 +163,20 @@ def test_vehicle_energy_balance_and_tyre_lift_off() -> None:
 
 
 def test_quarter_car_settles_to_static_equilibrium_near_gamma_zero() -> None:
-    x0 = em.initial_state_vehicle(P, 2)
-    x0[:, em.Y_S] += np.array([0.01, -0.02])  # displaced body, released at rest
-    n = 2500
-    xs, _ = _vehicle_run(P, np.zeros((n, 2)), np.zeros((n, 2)), x0)
+    # a physics test, not a numerics one: 2 ms steps with 0.5 ms substeps keep it fast
+    p = P.replace(numerics=P.numerics.replace(dt=2e-3, n_sub=4.0))
+    x0 = em.initial_state_vehicle(p, 2)
+    x0[:, em.Y_S] += np.array([0.01, -0.02])  # displaced body, released at rest, motor shorted (u = 0)
+    n = 1250  # 2.5 s: the body mode (1.3 Hz, zeta ~ 0.3) has decayed to ~0.5 %
+    xs, _ = _vehicle_run(p, np.zeros((n, 2)), np.zeros((n, 2)), x0)
+    assert np.max(np.abs(xs[:, :, em.V_S])) > 0.05  # it did move
     x = xs[-1]
-    a_eq = em.equilibrium_alpha(P, x[:, em.GAMMA])
+    a_eq = em.equilibrium_alpha(p, x[:, em.GAMMA])
     np.testing.assert_allclose(x[:, em.ALPHA], a_eq, atol=2e-3)
     assert np.all(np.abs(x[:, em.GAMMA]) < np.radians(0.5))
     assert np.all(np.abs(x[:, em.V_S]) < 2e-3) and np.all(np.abs(x[:, em.ALPHA_DOT]) < 1e-2)
-    np.testing.assert_allclose(em.tyre_force_unchecked(P, x), (P.car.m_s + P.car.m_u) * GRAVITY, rtol=3e-3)
-    np.testing.assert_allclose(em.actuator_force_of(P, x), P.car.m_s * GRAVITY, rtol=3e-3)
+    np.testing.assert_allclose(em.tyre_force(p, x), (p.car.m_s + p.car.m_u) * GRAVITY, rtol=3e-3)
+    np.testing.assert_allclose(em.actuator_force_of(p, x), p.car.m_s * GRAVITY, rtol=3e-3)
 
 
 def test_batched_run_equals_single_runs() -> None:

@@ -487,6 +487,11 @@ def electrical_power(p: ElpasParams, x: np.ndarray, voltage: np.ndarray) -> np.n
     return u_eff * x[:, CURRENT]
 
 
+def tyre_force(p: ElpasParams, x: np.ndarray) -> np.ndarray:
+    """Tyre force (N), shape ``(n,)``; 0 when the wheel has lifted off (vehicle state)."""
+    return tyre_force_unchecked(p, x)
+
+
 def suspension_travel(p: ElpasParams, x: np.ndarray) -> np.ndarray:
     """Compression ``l sin(alpha)`` (m)."""
     return p.cone.l * np.sin(x[:, ALPHA])

@@ -44,18 +44,22 @@ def _triangle(t: np.ndarray, period: float) -> np.ndarray:
     return np.where(s < 0.25, 4 * s, np.where(s < 0.75, 2 - 4 * s, 4 * s - 4))
 
 
-def friction_experiments(p: ElpasParams) -> dict[str, np.ndarray]:
-    """Simulate the two Fig. 13 experiments as one batch of two rigs (see module docstring)."""
-    dt = 5e-3
+def friction_experiments(p: ElpasParams, period: float = SWEEP_PERIOD, dt: float = 5e-3) -> dict[str, np.ndarray]:
+    """Simulate the two Fig. 13 experiments as one batch of two rigs (see module docstring).
+
+    Returns time series (shape ``(T,)``): ``t``, ``omega_m`` and ``omega_ref`` (row 0),
+    ``friction_measured`` (row 0, ``K_T I - J_r/N^2 domega_m/dt``), ``moment`` (row 1,
+    ``K_T I``), ``gamma`` (row 1, from its start), ``m_ref``; and ``energy`` (2,).
+    """
     c0 = p.cone
     # row 0: rod disconnected and bump stops removed (paper Sec. 5.3.1): no spring, no gamma stops
     cones = ConeGeometry.stack([c0.replace(F_s0=0.0, C_a=0.0, gamma_max=1e6), c0])
     pb = p.replace(cone=cones, numerics=NumericsParams(dt=dt, n_sub=4.0))
     m = p.motor
-    n_steps = int(round(SWEEP_PERIOD / dt))
+    n_steps = int(round(period / dt))
     t = dt * np.arange(1, n_steps + 1)
-    w_ref = SWEEP_OMEGA_MAX * _triangle(t, SWEEP_PERIOD)
-    m_ref = PRESLIDING_PEAK * _triangle(t, SWEEP_PERIOD)
+    w_ref = SWEEP_OMEGA_MAX * _triangle(t, period)
+    m_ref = PRESLIDING_PEAK * _triangle(t, period)
     kp, ki = 0.05, 2.0  # velocity PI (V per rad/s, V per rad) on the motor speed
     x = em.initial_state_rig(pb, 2)
     integ = 0.0
