@@ -20,6 +20,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.physics.parameters import ParameterSet, param
 
@@ -43,6 +44,7 @@ def belt_ratio(p: BeltParams) -> float | np.ndarray:
     return p.z_out / p.z_in
 
 
+@register_jitable
 def input_pulley_radius(p: BeltParams) -> float | np.ndarray:
     """``r_ip = r_op z_in / z_out`` (m)."""
     return p.r_op * p.z_in / p.z_out
@@ -53,6 +55,7 @@ def belt_stretch(p: BeltParams, theta_ip: np.ndarray, q2: np.ndarray) -> np.ndar
     return input_pulley_radius(p) * theta_ip - p.r_op * q2
 
 
+@register_jitable
 def belt_force(p: BeltParams, delta: np.ndarray) -> np.ndarray:
     """Linear belt force ``C_belt delta`` (N)."""
     return p.C_belt * delta

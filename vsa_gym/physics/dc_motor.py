@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.physics.parameters import ParameterSet, param
 
@@ -56,6 +57,7 @@ class DCMotorParams(ParameterSet):
                          lower=0.0, strict_lower=True, doc="amplifier current limit")
 
 
+@register_jitable
 def applied_voltage(p: DCMotorParams, u: np.ndarray, i: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Voltage the amplifier actually applies, ``u_eff`` (see module docstring). Shape ``(n,)``."""
     emf = p.k_e * omega
@@ -64,11 +66,13 @@ def applied_voltage(p: DCMotorParams, u: np.ndarray, i: np.ndarray, omega: np.nd
     return np.minimum(np.maximum(u, u_lo), u_hi)
 
 
+@register_jitable
 def current_derivative(p: DCMotorParams, u_eff: np.ndarray, i: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """``di/dt = (u_eff - k_e omega - R i) / L`` in A/s."""
     return (u_eff - p.k_e * omega - p.R * i) / p.L
 
 
+@register_jitable
 def shaft_torque(p: DCMotorParams, i: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Electromagnetic torque minus rotor viscous friction, ``k_t i - b omega`` in N m."""
     return p.k_t * i - p.b * omega

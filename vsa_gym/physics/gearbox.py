@@ -34,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.physics.parameters import ParameterSet, param
 
@@ -61,11 +62,13 @@ class GearboxParams(ParameterSet):
                                 doc="load-torque blend width, as a fraction of tau_max")
 
 
+@register_jitable
 def efficiency(p: GearboxParams, tau_out: np.ndarray) -> np.ndarray:
     """``eta(tau_o) = eta_max (1 - exp(-alpha |tau_o| / tau_max))`` (dimensionless)."""
     return p.eta_max * (-np.expm1(-p.alpha * np.abs(tau_out) / p.tau_max))
 
 
+@register_jitable
 def _load_over_eta(p: GearboxParams, abs_tau: np.ndarray) -> np.ndarray:
     """``|tau| / eta(|tau|)``, finite at zero load (limit ``tau_max / (alpha eta_max)``)."""
     x = p.alpha * abs_tau / p.tau_max
@@ -74,6 +77,7 @@ def _load_over_eta(p: GearboxParams, abs_tau: np.ndarray) -> np.ndarray:
     return ratio * p.tau_max / (p.alpha * p.eta_max)
 
 
+@register_jitable
 def loss_magnitude(p: GearboxParams, tau_load: np.ndarray, omega_in: np.ndarray) -> np.ndarray:
     """Loss torque magnitude ``m >= 0`` referred to the input shaft (N m)."""
     a = np.abs(tau_load)
@@ -84,6 +88,7 @@ def loss_magnitude(p: GearboxParams, tau_load: np.ndarray, omega_in: np.ndarray)
     return w * forward + (1.0 - w) * backward
 
 
+@register_jitable
 def input_torque(p: GearboxParams, tau_load: np.ndarray, omega_in: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Torque the gearhead draws from its input shaft, and the power it dissipates.
 

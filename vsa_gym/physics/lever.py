@@ -19,8 +19,8 @@ Limits, both as stiff, energy-consistent penalty contacts (damped only while eng
   through ``x(q1, phi)``, so the pivot feels the stop too);
 * mechanical end stops on the deflection ``|phi| <= phi_max``.
 
-Contact damping is ramped in over the first ``CONTACT_RAMP_*`` of penetration, so the
-contact force is continuous in the state (no jump on touching a stop).
+The stops are smooth penalty contacts (:mod:`vsa_gym.physics.contact`), so the
+forces are smooth in the state (no kink on touching a stop).
 
 At ``q1 -> 0`` the lever becomes rigid (``rho -> inf``).  The lever ratio is evaluated
 at ``max(q1, q1_min)``; with ``q1_min = 1 mm`` the lever is 100x stiffer than the belt,
@@ -35,12 +35,14 @@ import dataclasses
 from typing import NamedTuple
 
 import numpy as np
+from numba.extending import register_jitable
 
+from vsa_gym.physics.contact import two_sided_stop
 from vsa_gym.physics.parameters import ParameterSet, param
 
-#: Penetration over which stop damping ramps from 0 to full (m, rad) -- numerics.
-CONTACT_RAMP_X = 1e-4
-CONTACT_RAMP_PHI = 1e-3
+#: Smoothing widths of the stops (m, rad) -- numerics, see :mod:`vsa_gym.physics.contact`.
+CONTACT_EPS_X = 2e-4
+CONTACT_EPS_PHI = 2e-3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -103,6 +105,7 @@ def pivot_for_stiffness(p: LeverParams, K: np.ndarray) -> np.ndarray:
     return p.l * p.l / (p.l + lrho)  # from l (l - q1)/q1 = lrho
 
 
+@register_jitable
 def lever_forces(
     p: LeverParams, q1: np.ndarray, phi: np.ndarray, q1_dot: np.ndarray, phi_dot: np.ndarray
 ) -> LeverForces:
@@ -117,20 +120,12 @@ def lever_forces(
     dx_dq1 = p.l * s * drho
     x_dot = dx_dphi * phi_dot + dx_dq1 * q1_dot
 
-    # springs: U = k x^2
-    dU_dx = 2.0 * p.k * x
-    # spring-travel stop
-    pen_x = np.maximum(np.abs(x) - p.x_max, 0.0)
-    ramp_x = np.minimum(pen_x / CONTACT_RAMP_X, 1.0)
-    f_stop_x = p.K_x * pen_x * np.sign(x) + ramp_x * p.D_x * x_dot
-    dU_dx = dU_dx + f_stop_x
-    # deflection end stop
-    pen_phi = np.maximum(np.abs(phi) - p.phi_max, 0.0)
-    ramp_phi = np.minimum(pen_phi / CONTACT_RAMP_PHI, 1.0)
-    tau_stop = p.K_phi * pen_phi * np.sign(phi) + ramp_phi * p.D_phi * phi_dot
-
-    tau_phi = -dU_dx * dx_dphi - tau_stop
+    # springs: U = k x^2; smooth penalty stops on the spring travel and the deflection
+    stop_x = two_sided_stop(x, x_dot, -p.x_max, p.x_max, p.K_x, p.D_x, CONTACT_EPS_X)
+    stop_phi = two_sided_stop(phi, phi_dot, -p.phi_max, p.phi_max, p.K_phi, p.D_phi, CONTACT_EPS_PHI)
+    dU_dx = 2.0 * p.k * x - stop_x.force
+    tau_phi = -dU_dx * dx_dphi + stop_phi.force
     F_q1 = -dU_dx * dx_dq1
-    energy = p.k * x * x + 0.5 * p.K_x * pen_x**2 + 0.5 * p.K_phi * pen_phi**2
-    p_diss = ramp_x * p.D_x * x_dot**2 + ramp_phi * p.D_phi * phi_dot**2
+    energy = p.k * x * x + stop_x.energy + stop_phi.energy
+    p_diss = stop_x.p_diss + stop_phi.p_diss
     return LeverForces(tau_phi, F_q1, energy, p_diss, x)

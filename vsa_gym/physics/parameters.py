@@ -23,6 +23,7 @@ the unit and the violated bound -- never a NaN later in the physics.
 from __future__ import annotations
 
 import dataclasses
+from collections import namedtuple
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, Literal, Self
 
@@ -217,9 +218,31 @@ class ParameterSet:
                 kwargs[f.name] = values[0]
         return cls(**kwargs)
 
+    def as_tuple(self) -> tuple[Any, ...]:
+        """The same values as an immutable named tuple (nested sets become nested tuples).
+
+        Named tuples are what the compiled (numba) kernels take: the physics
+        functions read ``p.<field>`` either way, so one implementation serves both.
+        """
+        cls = type(self)
+        tuple_cls = _TUPLE_TYPES.get(cls)
+        names = [f.name for f in dataclasses.fields(self)
+                 if "symbol" in f.metadata or isinstance(getattr(self, f.name), ParameterSet)]
+        if tuple_cls is None:
+            tuple_cls = namedtuple(f"{cls.__name__}Tuple", names)  # type: ignore[misc]
+            _TUPLE_TYPES[cls] = tuple_cls
+        values = []
+        for name in names:
+            v = getattr(self, name)
+            values.append(v.as_tuple() if isinstance(v, ParameterSet) else v)
+        return tuple_cls(*values)
+
     def __iter__(self) -> Iterator[tuple[str, Any]]:
         for name in self.field_names():
             yield name, getattr(self, name)
+
+
+_TUPLE_TYPES: dict[type, Any] = {}
 
 
 def _nested_type(cls: type, name: str) -> type[ParameterSet] | None:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.physics.parameters import ParameterSet, param
 
@@ -47,16 +48,19 @@ class PivotParams(ParameterSet):
                         lower=0.0, doc="displaced planet inertia at the carrier")
 
 
+@register_jitable
 def gear_ratio(p: PivotParams) -> float | np.ndarray:
     """Carrier / sun angle ratio ``gamma`` of eq. (1) (0.1842 for the vsaUT-II)."""
     return 1.0 / (1.0 + (p.N_r / p.N_p) * (p.N_c / p.N_s))
 
 
+@register_jitable
 def pivot_position(p: PivotParams, theta_s: np.ndarray) -> np.ndarray:
     """``q1 = D_p (1 - cos(gamma theta_s))`` in m (eq. 5)."""
     return p.D_p * (1.0 - np.cos(gear_ratio(p) * theta_s))
 
 
+@register_jitable
 def pivot_jacobian(p: PivotParams, theta_s: np.ndarray) -> np.ndarray:
     """``dq1/dtheta_s = D_p gamma sin(gamma theta_s)`` in m/rad (eq. 4)."""
     g = gear_ratio(p)

@@ -56,10 +56,14 @@ import dataclasses
 from collections.abc import Mapping, Sequence
 from typing import NamedTuple, Protocol
 
+import numba
 import numpy as np
+from numba.extending import register_jitable
 
-from vsa_gym.physics import dc_motor, gearbox
 from vsa_gym.physics.belt import belt_force, belt_stiffness_at_frame, input_pulley_radius
+from vsa_gym.physics.contact import two_sided_stop
+from vsa_gym.physics.dc_motor import applied_voltage, current_derivative, shaft_torque
+from vsa_gym.physics.gearbox import input_torque
 from vsa_gym.physics.integrate import rk4
 from vsa_gym.physics.lever import lever_forces, spring_stiffness
 from vsa_gym.physics.parameters import as_batch
@@ -72,11 +76,14 @@ STATE_UNITS = ("A", "rad", "rad/s", "A", "rad", "rad/s", "rad", "rad/s", "rad", 
 POWER = {name: i for i, name in enumerate(
     ("el_pivot", "el_frame", "ext", "copper", "viscous", "gearbox", "stops"))}
 N_POWER = len(POWER)
-PORTS = ("belt_force", "lever_torque", "pivot_force", "motor1", "motor2", "frame", "output")
+PORTS: tuple[str, ...] = ("belt_force", "lever_torque", "pivot_force", "motor1", "motor2", "frame", "output")
 
-#: Penetration over which stop damping ramps in (rad at the pivot motor, rad at the frame) -- numerics.
-STOP_RAMP_MOTOR = 1e-2
-STOP_RAMP_FRAME = 1e-3
+#: Smoothing widths of the pivot-stroke stop (rad at the motor) and frame stops (rad) -- numerics.
+STOP_EPS_MOTOR = 2e-2
+STOP_EPS_FRAME = 2e-3
+#: The pivot-stroke stops sit this far (10 smoothing widths) outside [0, th1_max], so a pivot parked at
+#: either end of the stroke feels no stop force (< 1e-6 N m).
+STOP_MARGIN_MOTOR = 10 * STOP_EPS_MOTOR
 
 #: Default RK4 substeps per 1 ms control step (h = 0.1 ms; see tests/vsaut2/test_integrator.py).
 SUBSTEPS_PER_MS = 10
@@ -142,6 +149,7 @@ class VsaUT2Model:
 
     params: VsaUT2Params = dataclasses.field(default_factory=VsaUT2Params)
     extensions: tuple[Extension, ...] = ()
+    compiled: bool = True  # use the numba-compiled RK4 of the same core when there are no extensions
 
     def __post_init__(self) -> None:
         for ext in self.extensions:
@@ -156,6 +164,7 @@ class VsaUT2Model:
             th1_max=p.theta1_max,
         )
         object.__setattr__(self, "_d", derived)
+        object.__setattr__(self, "_p_tuple", p.as_tuple())
 
     @property
     def n_states(self) -> int:
@@ -209,86 +218,38 @@ class VsaUT2Model:
     # ------------------------------------------------------------------ dynamics
     def rhs(self, x: np.ndarray, u: np.ndarray, tau_ext: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Time derivative of ``x`` and the power channels, for held inputs. Shapes as in the module doc."""
-        p = self.params
-        m1, m2, g1, g2 = p.pivot_motor, p.frame_motor, p.pivot_gearbox, p.frame_gearbox
-        i1, th1, w1, i2, w2 = x[..., 0], x[..., 1], x[..., 2], x[..., 3], x[..., 5]
-        q2, q2d, rd = x[..., 6], x[..., 7], x[..., 9]
-        kin = self.kinematics(x)
-        th_s = th1 / g1.n
-        jac = pivot_jacobian(p.pivot, th_s)
-
-        lev = lever_forces(p.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot)
-        F_b = belt_force(p.belt, kin.delta)
-        ports: dict[str, np.ndarray] = {}
-        p_ext_diss = 0.0 * i1
+        x = np.asarray(x, dtype=np.float64)
+        flat = x.ndim == 1
+        if flat:
+            x, u, tau_ext = x[None, :], np.asarray(u)[None, :], np.atleast_1d(tau_ext)
+        if self.compiled and not self.extensions:
+            # contiguous float64 inputs keep numba at one compiled signature
+            dx, pw = _rhs_compiled(np.ascontiguousarray(x), np.ascontiguousarray(u, dtype=np.float64),
+                                   np.ascontiguousarray(np.broadcast_to(tau_ext, x.shape[:1]), dtype=np.float64),
+                                   self._p_tuple, self._d)
+            return (dx[0], pw[0]) if flat else (dx, pw)
+        ports = np.zeros((x.shape[0], len(PORTS)))
+        p_ext_diss = np.zeros(x.shape[0])
         dz_parts = []
-        col = N_STATES
-        for ext in self.extensions:
-            z = x[..., col:col + ext.n_states]
-            col += ext.n_states
-            out = ext.evaluate(p, kin, z)
-            for port, f in out.forces.items():
-                if port not in PORTS:
-                    raise ValueError(f"extension {ext.name!r} uses unknown port {port!r}; ports: {PORTS}")
-                ports[port] = ports[port] + f if port in ports else f
-            dz_parts.append(out.z_dot)
-            p_ext_diss = p_ext_diss + out.p_diss
-        zero = 0.0
-        F_b = F_b + ports.get("belt_force", zero)
-        tau_phi = lev.tau_phi + ports.get("lever_torque", zero)
-        F_q1 = lev.F_q1 + ports.get("pivot_force", zero)
-
-        # motors: amplifier limits, circuits
-        u1 = dc_motor.applied_voltage(m1, u[..., 0], i1, w1)
-        u2 = dc_motor.applied_voltage(m2, u[..., 1], i2, w2)
-        di1 = dc_motor.current_derivative(m1, u1, i1, w1)
-        di2 = dc_motor.current_derivative(m2, u2, i2, w2)
-
-        # gearboxes
-        tau_L1 = -F_q1 * jac
-        tau_in1, p_gb1 = gearbox.input_torque(g1, tau_L1, w1)
-        d = self._d
-        tau_in2, p_gb2 = gearbox.input_torque(g2, d.r_ip * F_b, w2)
-
-        # pivot stroke stop on the motor shaft: th1 in [0, theta1_max]
-        pen_lo = np.minimum(th1, 0.0)
-        pen_hi = np.maximum(th1 - d.th1_max, 0.0)
-        pen1 = pen_lo + pen_hi
-        ramp1 = np.minimum(np.abs(pen1) / STOP_RAMP_MOTOR, 1.0)
-        tau_s1 = p.K_s1 * pen1 + ramp1 * p.D_s1 * w1
-        # frame end stops
-        pen2 = np.maximum(np.abs(q2) - p.q2_max, 0.0) * np.sign(q2)
-        ramp2 = np.minimum(np.abs(pen2) / STOP_RAMP_FRAME, 1.0)
-        tau_s2 = p.K_q2 * pen2 + ramp2 * p.D_q2 * q2d
-
-        dw1 = (dc_motor.shaft_torque(m1, i1, w1) - tau_in1 - tau_s1 + ports.get("motor1", zero)) / d.J1
-        dw2 = (dc_motor.shaft_torque(m2, i2, w2) - tau_in2 + ports.get("motor2", zero)) / d.J2
-        dq2d = (p.belt.r_op * F_b - tau_phi - p.c_ad * q2d - tau_s2 + ports.get("frame", zero)) / p.I_ad
-        drd = (tau_phi - p.c_o * rd + tau_ext + ports.get("output", zero)) / p.I_o
-
+        if self.extensions:
+            kin = self.kinematics(x)
+            col = N_STATES
+            for ext in self.extensions:
+                out = ext.evaluate(self.params, kin, x[:, col:col + ext.n_states])
+                col += ext.n_states
+                for port, f in out.forces.items():
+                    if port not in PORTS:
+                        raise ValueError(f"extension {ext.name!r} uses unknown port {port!r}; ports: {PORTS}")
+                    ports[:, PORTS.index(port)] += f
+                dz_parts.append(out.z_dot)
+                p_ext_diss += out.p_diss
         dx = np.empty_like(x)
-        dx[..., 0] = di1
-        dx[..., 1] = w1
-        dx[..., 2] = dw1
-        dx[..., 3] = di2
-        dx[..., 4] = w2
-        dx[..., 5] = dw2
-        dx[..., 6] = q2d
-        dx[..., 7] = dq2d
-        dx[..., 8] = rd
-        dx[..., 9] = drd
+        pw = np.empty((x.shape[0], N_POWER))
+        _rhs_core(x, u, tau_ext, self.params, self._d, ports, dx, pw)
+        pw[:, 6] += p_ext_diss
         if dz_parts:
-            dx[..., N_STATES:] = np.concatenate(dz_parts, axis=-1)
-
-        pw = np.empty((*x.shape[:-1], N_POWER))
-        pw[..., 0] = u1 * i1
-        pw[..., 1] = u2 * i2
-        pw[..., 2] = tau_ext * rd
-        pw[..., 3] = m1.R * i1**2 + m2.R * i2**2
-        pw[..., 4] = m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2
-        pw[..., 5] = p_gb1 + p_gb2
-        pw[..., 6] = lev.p_diss + ramp1 * p.D_s1 * w1**2 + ramp2 * p.D_q2 * q2d**2 + p_ext_diss
-        return dx, pw
+            dx[:, N_STATES:] = np.concatenate(dz_parts, axis=-1)
+        return (dx[0], pw[0]) if flat else (dx, pw)
 
     def step(
         self, x: np.ndarray, u: np.ndarray, tau_ext: np.ndarray | float = 0.0, dt: float = 1e-3,
@@ -312,7 +273,11 @@ class VsaUT2Model:
             raise ValueError(f"dt must be a positive finite time step, got {dt}")
         if n_sub is None:
             n_sub = max(1, int(np.ceil(dt / 1e-3 * SUBSTEPS_PER_MS)))
-        x_new, energy = rk4(lambda y: self.rhs(y, u, tau), x, dt, n_sub)
+        if self.extensions or not self.compiled:
+            x_new, energy = rk4(lambda y: self.rhs(y, u, tau), x, dt, n_sub)
+        else:
+            x_new, energy = _rk4_compiled(np.ascontiguousarray(x), np.ascontiguousarray(u), np.ascontiguousarray(tau),
+                                          self._p_tuple, self._d, float(dt), int(n_sub))
         if not np.all(np.isfinite(x_new)):
             raise FloatingPointError("vsaUT-II integration produced a non-finite state; reduce dt")
         return x_new, energy
@@ -353,10 +318,10 @@ class VsaUT2Model:
                    + p.I_ad * x[..., 7] ** 2 + p.I_o * x[..., 9] ** 2)
         e = e + lever_forces(p.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot).energy
         e = e + 0.5 * p.belt.C_belt * kin.delta**2
-        th1 = x[..., 1]
-        pen1 = np.minimum(th1, 0.0) + np.maximum(th1 - d.th1_max, 0.0)
-        pen2 = np.maximum(np.abs(x[..., 6]) - p.q2_max, 0.0)
-        e = e + 0.5 * p.K_s1 * pen1**2 + 0.5 * p.K_q2 * pen2**2
+        zero = 0.0 * x[..., 0]
+        e = e + two_sided_stop(x[..., 1], zero, -STOP_MARGIN_MOTOR, d.th1_max + STOP_MARGIN_MOTOR, p.K_s1, p.D_s1,
+                               STOP_EPS_MOTOR).energy
+        e = e + two_sided_stop(x[..., 6], zero, -p.q2_max, p.q2_max, p.K_q2, p.D_q2, STOP_EPS_FRAME).energy
         col = N_STATES
         for ext in self.extensions:
             e = e + ext.stored_energy(p, kin, x[..., col:col + ext.n_states])
@@ -380,6 +345,100 @@ class VsaUT2Model:
         """Elastic torque the lever applies to the output (N m), ``(n,)``."""
         kin = self.kinematics(x)
         return lever_forces(self.params.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot).tau_phi
+
+
+@register_jitable
+def _rhs_core(
+    x: np.ndarray, u: np.ndarray, tau_ext: np.ndarray, p: VsaUT2Params, d: _Derived, ports: np.ndarray,
+    dx: np.ndarray, pw: np.ndarray,
+) -> None:
+    """The vsaUT-II equations of motion (module docstring), written once.
+
+    Runs as plain numpy (``p`` a :class:`VsaUT2Params`) and compiled by numba (``p``
+    its :meth:`~vsa_gym.physics.parameters.ParameterSet.as_tuple`).  ``x``: ``(n, >= 10)``;
+    ``ports``: ``(n, 7)`` additive extension forces in :data:`PORTS` order; fills ``dx``
+    (first 10 columns) and ``pw`` ``(n, 7)`` in place.
+    """
+    m1, m2, g1, g2 = p.pivot_motor, p.frame_motor, p.pivot_gearbox, p.frame_gearbox
+    i1, th1, w1, i2, th2, w2 = x[:, 0], x[:, 1], x[:, 2], x[:, 3], x[:, 4], x[:, 5]
+    q2, q2d, r, rd = x[:, 6], x[:, 7], x[:, 8], x[:, 9]
+
+    # kinematics
+    th_s = th1 / g1.n
+    jac = pivot_jacobian(p.pivot, th_s)
+    q1 = pivot_position(p.pivot, th_s)
+    q1_dot = jac * w1 / g1.n
+    delta = d.r_ip * th2 / g2.n - p.belt.r_op * q2
+
+    # elastic elements (+ extension ports)
+    lev = lever_forces(p.lever, q1, r - q2, q1_dot, rd - q2d)
+    F_b = belt_force(p.belt, delta) + ports[:, 0]
+    tau_phi = lev.tau_phi + ports[:, 1]
+    F_q1 = lev.F_q1 + ports[:, 2]
+
+    # motors: amplifier limits, circuits
+    u1 = applied_voltage(m1, u[:, 0], i1, w1)
+    u2 = applied_voltage(m2, u[:, 1], i2, w2)
+
+    # gearboxes: pivot force seen at the GP26B output, belt load at the GP42C output
+    tau_in1, p_gb1 = input_torque(g1, -F_q1 * jac, w1)
+    tau_in2, p_gb2 = input_torque(g2, d.r_ip * F_b, w2)
+
+    # pivot stroke stop on the motor shaft (th1 in [0, th1_max]) and frame end stops
+    stop1 = two_sided_stop(th1, w1, -STOP_MARGIN_MOTOR, d.th1_max + STOP_MARGIN_MOTOR, p.K_s1, p.D_s1, STOP_EPS_MOTOR)
+    stop2 = two_sided_stop(q2, q2d, -p.q2_max, p.q2_max, p.K_q2, p.D_q2, STOP_EPS_FRAME)
+
+    dx[:, 0] = current_derivative(m1, u1, i1, w1)
+    dx[:, 1] = w1
+    dx[:, 2] = (shaft_torque(m1, i1, w1) - tau_in1 + stop1.force + ports[:, 3]) / d.J1
+    dx[:, 3] = current_derivative(m2, u2, i2, w2)
+    dx[:, 4] = w2
+    dx[:, 5] = (shaft_torque(m2, i2, w2) - tau_in2 + ports[:, 4]) / d.J2
+    dx[:, 6] = q2d
+    dx[:, 7] = (p.belt.r_op * F_b - tau_phi - p.c_ad * q2d + stop2.force + ports[:, 5]) / p.I_ad
+    dx[:, 8] = rd
+    dx[:, 9] = (tau_phi - p.c_o * rd + tau_ext + ports[:, 6]) / p.I_o
+
+    pw[:, 0] = u1 * i1
+    pw[:, 1] = u2 * i2
+    pw[:, 2] = tau_ext * rd
+    pw[:, 3] = m1.R * i1**2 + m2.R * i2**2
+    pw[:, 4] = m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2
+    pw[:, 5] = p_gb1 + p_gb2
+    pw[:, 6] = lev.p_diss + stop1.p_diss + stop2.p_diss
+
+
+@numba.njit(cache=True)
+def _rhs_compiled(
+    x: np.ndarray, u: np.ndarray, tau: np.ndarray, p: VsaUT2Params, d: _Derived
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_rhs_core` compiled, without extensions; returns ``(dx, pw)``."""
+    dx = np.empty_like(x)
+    pw = np.empty((x.shape[0], N_POWER))
+    _rhs_core(x, u, tau, p, d, np.zeros((x.shape[0], len(PORTS))), dx, pw)
+    return dx, pw
+
+
+@numba.njit(cache=True)
+def _rk4_compiled(
+    x: np.ndarray, u: np.ndarray, tau: np.ndarray, p: VsaUT2Params, d: _Derived, dt: float, n_sub: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`vsa_gym.physics.integrate.rk4` over :func:`_rhs_core`, compiled (no extensions)."""
+    n = x.shape[0]
+    h = dt / n_sub
+    ports = np.zeros((n, len(PORTS)))
+    k1, k2, k3, k4 = np.empty_like(x), np.empty_like(x), np.empty_like(x), np.empty_like(x)
+    p1, p2, p3, p4 = (np.empty((n, N_POWER)), np.empty((n, N_POWER)), np.empty((n, N_POWER)),
+                      np.empty((n, N_POWER)))
+    energy = np.zeros((n, N_POWER))
+    for _ in range(n_sub):
+        _rhs_core(x, u, tau, p, d, ports, k1, p1)
+        _rhs_core(x + 0.5 * h * k1, u, tau, p, d, ports, k2, p2)
+        _rhs_core(x + 0.5 * h * k2, u, tau, p, d, ports, k3, p3)
+        _rhs_core(x + h * k3, u, tau, p, d, ports, k4, p4)
+        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+        energy += (h / 6.0) * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
+    return x, energy
 
 
 def pivot_gamma(params: VsaUT2Params) -> float | np.ndarray:
