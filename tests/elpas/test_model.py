@@ -233,3 +233,23 @@ def test_bad_inputs_are_rejected() -> None:
         DriveParams(J_r=-1.0)
     with pytest.raises(ValueError, match="N"):
         DriveParams(N=0.0)
+
+
+def test_quarter_car_on_iso_roads_comfort_scales_with_class() -> None:
+    """Road -> vehicle -> ISO 2631-1 pipeline: one class up doubles the road amplitude, and the
+    nearly linear car (motor shorted, u = 0) doubles the weighted RMS body acceleration."""
+    from vsa_gym.vehicle import comfort, road
+
+    p = P.replace(numerics=P.numerics.replace(dt=2e-3, n_sub=4.0))
+    dt, n = 2e-3, 1000
+    heights = np.stack([road.road_signal(c, speed=20.0, duration=n * dt, dt=dt, seed=4) for c in "BC"], axis=1)
+    x = em.initial_state_vehicle(p, 2)
+    acc = np.empty((2, n))
+    for k in range(n):
+        v0 = x[:, em.V_S].copy()
+        x, _ = em.step_vehicle(p, x, np.stack([np.zeros(2), heights[k + 1]], axis=1))
+        acc[:, k] = (x[:, em.V_S] - v0) / dt
+    aw = comfort.weighted_rms(acc, 1.0 / dt, settle=0.7)
+    assert 0.01 < aw[0] < 1.0
+    assert aw[1] / aw[0] == pytest.approx(2.0, rel=0.1)
+    assert np.all(em.tyre_force(p, x) > 0.0)
