@@ -1,0 +1,236 @@
+"""Device adapters: replay a record through a device core with a candidate parameter batch.
+
+An adapter turns ``theta`` -- a dict ``"<effect>.<param>" -> (n,)`` array (and
+``"base.<name>"`` for the free nominal parameters) -- into ``n`` simulated,
+measured outputs ``(T, n, n_outputs)``.  Keys that are missing mean "absent" /
+nominal.  All rows are simulated as one batch through the device core.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from vsa_gym.identify import drive
+from vsa_gym.identify.effects import EffectSpec, MeasurementModel, ParamSpec, sensor_specs
+from vsa_gym.identify.record import Record, Signal
+
+Theta = Mapping[str, np.ndarray]
+
+
+class Adapter:
+    """Base class; subclasses implement :meth:`simulate_physical` and set ``effects`` / ``base``."""
+
+    record: Record
+    outputs: list[Signal]
+    base: list[ParamSpec]
+    effects: dict[str, EffectSpec]
+    measurement: list[MeasurementModel]
+
+    def __init__(self, record: Record) -> None:
+        self.record = record
+        self.t = record.t
+        self.dt = record.dt
+        self.outputs = list(record.outputs.values())
+        self.measured = np.stack([record.output(s.quantity) for s in self.outputs], axis=1)
+        self.measurement = [MeasurementModel(rectify=s.quantity == "speed_abs",
+                                             filter_hz=float(record.meta["outputs"][s.column].get("filter_hz", 0.0)))
+                            for s in self.outputs]
+
+    # -- to implement
+    def simulate_physical(self, theta: Theta, n: int) -> np.ndarray:
+        raise NotImplementedError
+
+    def for_record(self, record: Record) -> Adapter:
+        """The same model replaying another record of the same device (e.g. the test record)."""
+        raise NotImplementedError
+
+    # -- shared
+    def _sensor_effects(self) -> dict[str, EffectSpec]:
+        y0 = self.measured[:, 0]
+        scale = float(np.std(y0)) or float(np.max(np.abs(y0))) or 1.0
+        return sensor_specs(self.outputs[0].column, scale, self.dt, float(self.t[-1] - self.t[0]))
+
+    def simulate(self, theta: Theta, n: int) -> np.ndarray:
+        """Measured outputs ``(T, n, n_outputs)`` of ``n`` candidate models."""
+        x = self.simulate_physical(theta, n)
+        out = np.empty_like(x)
+        for j, mm in enumerate(self.measurement):
+            if j == 0:
+                out[:, :, j] = mm.apply(self.t, x[:, :, j], theta.get("sensor_gain.gain"),
+                                        theta.get("sensor_offset.offset"), theta.get("sensor_delay.delay"))
+            else:
+                out[:, :, j] = mm.apply(self.t, x[:, :, j])
+        return out
+
+
+def _get(theta: Theta, key: str, n: int, default: float = 0.0) -> np.ndarray:
+    v = theta.get(key)
+    return np.full(n, default) if v is None else np.broadcast_to(np.asarray(v, dtype=np.float64), (n,))
+
+
+# ----------------------------------------------------------------------------- generic drive
+_DRIVE_OBS = {"position": 0, "velocity": 1, "speed_abs": 1, "force": 3, "controller_output": 4}
+
+
+class DriveAdapter(Adapter):
+    """The generic drive (:mod:`vsa_gym.identify.drive`) from the sidecar's ``model`` section.
+
+    ``model``: ``{"params": {DriveParams fields}, "free": {name: [lower, upper]}, "motion":
+    "translational" | "rotational"}``.  Free parameters are refitted in every model
+    (nominal and extended), so an effect is credited only with what they cannot explain.
+    """
+
+    def __init__(self, record: Record, replay: str | None = None) -> None:
+        super().__init__(record)
+        model = record.model
+        self.params = drive.DriveParams(**model.get("params", {}))
+        self.rot = model.get("motion", "translational") == "rotational"
+        free = model.get("free", {})
+        self.base = []
+        for name, (lo, hi) in free.items():
+            if name not in drive.PIDX:
+                raise ValueError(f"model.free: {name!r} is not a drive parameter ({drive.PNAMES})")
+            v = float(getattr(self.params, name))
+            self.base.append(ParamSpec(name, "", float(lo), float(hi), v, max(abs(v), 1e-9)))
+        ctrl = record.controller
+        self.replay = replay or record.meta.get("replay", "closed_loop" if ctrl else "open_loop")
+        if self.replay not in ("open_loop", "closed_loop"):
+            raise ValueError(f"replay must be open_loop or closed_loop, got {self.replay!r}")
+        ins = record.inputs
+        T = len(record)
+        drive_q = next((q for q in ("voltage", "current", "force") if q in ins), None)
+        self.u = record.input(drive_q) if drive_q else np.zeros(T)
+        self.fext = record.input("external_force") if "external_force" in ins else np.zeros(T)
+        self.ctrl = None
+        self.ref = self.ff = np.zeros(T)
+        if self.replay == "closed_loop":
+            if not ctrl or ctrl.get("type") != "pd_cascade":
+                raise ValueError("closed-loop replay of a drive needs controller type 'pd_cascade' "
+                                 "(u = clip(kp kv (ref - q) - kv dq, +-saturation) + feedforward)")
+            self.ctrl = (float(ctrl["kp"]), float(ctrl["kv"]), float(ctrl.get("saturation", np.inf)))
+            self.ref = record.data[ctrl["reference"]].to_numpy(dtype=np.float64)
+            ffc = ctrl.get("feedforward")
+            self.ff = record.data[ffc].to_numpy(dtype=np.float64) if ffc else np.zeros(T)
+        self.obs = [_DRIVE_OBS[s.quantity] if not (s.quantity == "position"
+                                                    and record.meta["outputs"][s.column].get("at") == "motor") else 2
+                    for s in self.outputs]
+        init = record.meta.get("initial_state", {})
+        pos0 = init.get("position")
+        if pos0 is None and "position" in record.outputs:
+            pos0 = float(record.output("position")[0])
+        self.x0 = np.zeros(drive.N_STATE)
+        self.x0[0] = self.x0[2] = pos0 or 0.0
+        self.x0[1] = self.x0[3] = float(init.get("velocity", 0.0))
+        self.x0[4] = float(self.params.k_u) * float(self.u[0])
+        self._scales()
+        self.effects = self._effects()
+
+    def for_record(self, record: Record) -> DriveAdapter:
+        other = DriveAdapter(record, replay=self.replay)
+        other.effects, other.base = self.effects, self.base
+        other.F_ref, other.v_ref, other.x_ref = self.F_ref, self.v_ref, self.x_ref
+        return other
+
+    def _scales(self) -> None:
+        P = self.params.vector(1)[0]
+        xs = drive.simulate(self.params.vector(1), self.u, self.dt, x0=self.x0, fext=self.fext, ref=self.ref,
+                            ff=self.ff, controller=self.ctrl)[:, 0, :]
+        self.F_ref = float(np.max(np.abs(P[drive.PIDX["k_u"]] * xs[:, 4]))) or 1.0
+        self.v_ref = float(np.max(np.abs(xs[:, 1]))) or 1.0
+        self.x_ref = float(np.std(xs[:, 0])) or 1.0
+
+    def _effects(self) -> dict[str, EffectSpec]:
+        F, v, m = self.F_ref, self.v_ref, float(self.params.m)
+        lin, rot = ("rad", "N m") if self.rot else ("m", "N")
+        free = {b.name for b in self.base}
+        where = "at the load"
+        eff: dict[str, EffectSpec] = {}
+        if "F_c" not in free:
+            eff["coulomb_friction"] = EffectSpec("coulomb_friction", where,
+                                                 (ParamSpec("F_c", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),))
+        eff["stribeck_friction"] = EffectSpec("stribeck_friction", where, (
+            ParamSpec("F_s", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),
+            ParamSpec("v_s", f"{lin}/s", 0.005 * v, 0.5 * v, 0.05 * v, 0.05 * v, main=False)))
+        if "b" not in free:
+            eff["viscous_friction"] = EffectSpec("viscous_friction", where,
+                                                 (ParamSpec("b", f"{rot} s/{lin}", 0.0, 2 * F / v, 0.0, 0.05 * F / v),))
+        if "backlash" not in free:
+            eff["backlash"] = EffectSpec("backlash", "in the transmission",
+                                         (ParamSpec("width", lin, 0.0, 0.2 * self.x_ref, 0.0, 0.005 * self.x_ref),))
+        if float(self.params.k_c) == 0.0:
+            # compliance 1/k: absent = 0; typical: a mode at 20 Hz on the reduced mass
+            k_typ = 4 * np.pi**2 * 400.0 * m / 4
+            eff["transmission_compliance"] = EffectSpec("transmission_compliance", "in the transmission", (
+                ParamSpec("compliance", f"{lin}/{rot}", 0.0, 1.0 / (k_typ / 25), 0.0, 1.0 / k_typ),))
+        else:
+            eff["spring_stiffness_drift"] = EffectSpec("spring_stiffness_drift", "in the transmission spring",
+                                                       (ParamSpec("drift", "-", -0.5, 0.5, 0.0, 0.05),))
+        eff["gearbox_efficiency"] = EffectSpec("gearbox_efficiency", "in the transmission",
+                                               (ParamSpec("loss", "-", 0.0, 0.6, 0.0, 0.05),))
+        eff["hysteresis"] = EffectSpec("hysteresis", where, (ParamSpec("F_h", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),))
+        if "m" not in free:
+            eff["inertia_error"] = EffectSpec("inertia_error", "of the moving parts",
+                                              (ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.05),))
+        if "F_0" not in free:
+            eff["force_offset"] = EffectSpec("force_offset", where, (ParamSpec("F_0", rot, -0.3 * F, 0.3 * F, 0.0,
+                                                                               0.02 * F),))
+        eff.update(self._sensor_effects())
+        return eff
+
+    def param_matrix(self, theta: Theta, n: int) -> np.ndarray:
+        P = self.params.vector(n)
+        I = drive.PIDX
+        for b in self.base:
+            P[:, I[b.name]] = _get(theta, f"base.{b.name}", n, b.absent)
+        P[:, I["F_c"]] += _get(theta, "coulomb_friction.F_c", n)
+        P[:, I["F_s"]] += _get(theta, "stribeck_friction.F_s", n)
+        if "stribeck_friction.v_s" in theta:
+            P[:, I["v_s"]] = _get(theta, "stribeck_friction.v_s", n)
+        P[:, I["b"]] += _get(theta, "viscous_friction.b", n)
+        P[:, I["backlash"]] += _get(theta, "backlash.width", n)
+        P[:, I["m"]] *= 1.0 + _get(theta, "inertia_error.rel", n)
+        P[:, I["F_0"]] += _get(theta, "force_offset.F_0", n)
+        P[:, I["eta"]] *= 1.0 - _get(theta, "gearbox_efficiency.loss", n)
+        comp = _get(theta, "transmission_compliance.compliance", n)
+        on = comp > 0
+        P[on, I["k_c"]] = 1.0 / comp[on]
+        P[:, I["k_c"]] *= 1.0 + _get(theta, "spring_stiffness_drift.drift", n)
+        kc = P[:, I["k_c"]]
+        red = P[:, I["m"]] * P[:, I["frac_m"]] * (1 - P[:, I["frac_m"]])
+        P[on, I["c_c"]] = np.maximum(P[on, I["c_c"]], 2 * 0.05 * np.sqrt(kc[on] * red[on]))
+        fh = _get(theta, "hysteresis.F_h", n)
+        P[:, I["F_h"]] += fh
+        P[fh > 0, I["sigma_h"]] = fh[fh > 0] / (0.01 * self.x_ref) if hasattr(self, "x_ref") else 1.0
+        return P
+
+    def simulate_physical(self, theta: Theta, n: int) -> np.ndarray:
+        P = self.param_matrix(theta, n)
+        y = drive.simulate(P, self.u, self.dt, x0=self.x0, fext=self.fext, ref=self.ref, ff=self.ff,
+                           controller=self.ctrl,
+                           n_sub=drive.substeps(P, self.dt, vmax=getattr(self, "v_ref", 1.0) * 2))
+        return y[:, :, self.obs]
+
+    def describe_model(self, theta: Mapping[str, float]) -> dict[str, Any]:
+        """The identified drive as a :class:`DriveParams` dict (for rebuilding the simulator)."""
+        P = self.param_matrix({k: np.array([v]) for k, v in theta.items()}, 1)[0]
+        return {name: float(P[i]) for i, name in enumerate(drive.PNAMES)}
+
+
+def make_adapter(record: Record, **kw: Any) -> Adapter:
+    if record.device == "drive":
+        return DriveAdapter(record, **kw)
+    if record.device == "vsaut2":
+        from vsa_gym.identify.adapters_vsaut2 import VsaUT2Adapter
+
+        return VsaUT2Adapter(record, **kw)
+    if record.device == "elpas":
+        from vsa_gym.identify.adapters_elpas import ElpasAdapter
+
+        return ElpasAdapter(record, **kw)
+    raise ValueError(f"no adapter for device {record.device!r}")
+
+
+__all__ = ["Adapter", "DriveAdapter", "make_adapter"]

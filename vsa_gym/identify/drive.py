@@ -1,0 +1,260 @@
+"""The generic drive: a motor and a transmission on an inertia (or a motor force on a mass).
+
+One degree of freedom in translation (m, N, kg) or rotation (rad, N m, kg m^2),
+selected by ``DriveParams.motion``.  The drive force is the amplifier's::
+
+    F_m = k_u u                     (u: voltage of a current-mode amplifier, or a current, or a force)
+    tau_e dF/dt = k_u u - F         (optional first-order amplifier / electrical lag, tau_e > 0)
+
+A DC motor in voltage mode with negligible inductance reduces to this form:
+:meth:`DriveParams.from_motor` builds ``k_u = k_t n / R`` and the back-EMF damping
+``k_t k_e n^2 / R`` (added to ``b``) from :class:`vsa_gym.physics.dc_motor.DCMotorParams`.
+
+Rigid transmission (``k_c = 0`` and ``backlash = 0``): ``m x'' = eta(F_m) - F_f(v) - F_0 - h + F_ext``.
+With a compliant transmission or backlash the inertia splits into a motor side
+``frac_m m`` and a load side ``(1 - frac_m) m`` joined by the transmission force
+``F_t = k dz(x_m - x_l) + c_c (v_m - v_l) dz'`` with a smooth dead zone ``dz`` of
+total width ``backlash`` (``k = k_c``, or the contact stiffness ``k_contact`` when only
+backlash is present).  Load friction (:mod:`vsa_gym.physics.friction` forms)::
+
+    F_f(v) = (F_c + F_s exp(-(v/v_s)^2)) tanh(v / v_eps) + b v
+
+is the steady-state LuGre / Stribeck characteristic (``F_s`` is the static excess
+over Coulomb) with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`;
+the bristle dynamics are left out (their presliding travel is below the encoders'
+resolution on the rigs we identify).  ``eta`` is a gearbox efficiency (motor force
+times ``eta`` when the motor drives, divided by ``eta`` when the load back-drives);
+``h`` a Dahl hysteresis force (``dh/dt = sigma_h (v - |v| h / F_h)``).
+
+Every effect parameter defaults to "absent" (0, or 1 for ``eta``), so the nominal
+drive is ``m x'' = k_u u - b v``.  The batched roll-out is compiled by numba: one
+row per candidate parameter set, which is what simulation-error least squares needs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numba
+import numpy as np
+
+from vsa_gym.physics.dc_motor import DCMotorParams
+from vsa_gym.physics.parameters import ParameterSet, param
+
+PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
+                           "backlash", "eta", "F_h", "sigma_h", "k_contact")
+PIDX = {n: i for i, n in enumerate(PNAMES)}
+#: observables of the roll-out, in column order
+OBS: tuple[str, ...] = ("position", "velocity", "motor_position", "force", "controller_output")
+N_STATE = 6  # x_l, v_l, x_m, v_m, F (lagged drive force), h (hysteresis)
+
+
+@dataclasses.dataclass(frozen=True)
+class DriveParams(ParameterSet):
+    """Parameters of the generic drive (units for translation; rotation: rad, N m, kg m^2)."""
+
+    m: float = param(1.0, symbol="m", unit="kg", source="record sidecar", tag="proposed", lower=0.0,
+                     strict_lower=True, doc="total moving mass / inertia at the load")
+    b: float = param(0.0, symbol="b", unit="N s/m", source="record sidecar", tag="proposed", lower=0.0,
+                     doc="viscous friction at the load")
+    k_u: float = param(1.0, symbol="k_u", unit="N/V", source="record sidecar", tag="proposed",
+                       doc="drive gain: force at the load per input unit")
+    tau_e: float = param(0.0, symbol="tau_e", unit="s", source="record sidecar", tag="proposed", lower=0.0,
+                         doc="amplifier / electrical lag (0: none)")
+    F_c: float = param(0.0, symbol="F_c", unit="N", source="effect", tag="proposed", lower=0.0,
+                       doc="Coulomb friction level")
+    F_s: float = param(0.0, symbol="F_s", unit="N", source="effect", tag="proposed", lower=0.0,
+                       doc="static friction excess over Coulomb (Stribeck)")
+    v_s: float = param(0.01, symbol="v_s", unit="m/s", source="effect", tag="proposed", lower=0.0,
+                       strict_lower=True, doc="Stribeck velocity")
+    v_eps: float = param(1e-3, symbol="v_eps", unit="m/s", source="regularisation", tag="numerics", lower=0.0,
+                         strict_lower=True, doc="tanh regularisation of sign(v)")
+    F_0: float = param(0.0, symbol="F_0", unit="N", source="effect", tag="proposed",
+                       doc="constant force offset (opposes +x)")
+    k_c: float = param(0.0, symbol="k_c", unit="N/m", source="effect", tag="proposed", lower=0.0,
+                       doc="transmission stiffness (0: rigid)")
+    c_c: float = param(0.0, symbol="c_c", unit="N s/m", source="effect", tag="proposed", lower=0.0,
+                       doc="transmission damping")
+    frac_m: float = param(0.5, symbol="m_m/m", unit="-", source="effect", tag="proposed", lower=0.0,
+                          strict_lower=True, upper=1.0, doc="motor-side share of the inertia (two-mass case)")
+    backlash: float = param(0.0, symbol="2 g", unit="m", source="effect", tag="proposed", lower=0.0,
+                            doc="total backlash width")
+    eta: float = param(1.0, symbol="eta", unit="-", source="effect", tag="proposed", lower=0.0,
+                       strict_lower=True, upper=1.0, doc="transmission efficiency")
+    F_h: float = param(0.0, symbol="F_h", unit="N", source="effect", tag="proposed", lower=0.0,
+                       doc="Dahl hysteresis loop half-height")
+    sigma_h: float = param(1e5, symbol="sigma_h", unit="N/m", source="effect", tag="proposed", lower=0.0,
+                           strict_lower=True, doc="Dahl hysteresis initial stiffness")
+    k_contact: float = param(0.0, symbol="k_contact", unit="N/m", source="numerics", tag="numerics", lower=0.0,
+                             doc="contact stiffness when backlash is present and k_c = 0 (0: 4 pi^2 30^2 m)")
+
+    @classmethod
+    def from_motor(cls, motor: DCMotorParams, ratio: float, m_load: float, b_load: float = 0.0,
+                   **kw: float) -> DriveParams:
+        """A voltage-driven DC motor (inductance neglected) through a transmission of ``ratio`` motor rad per
+        load unit: ``k_u = k_t ratio / R``, ``b = b_load + (b_m + k_t k_e / R) ratio^2``, ``m = m_load + J ratio^2``."""
+        k_u = motor.k_t * ratio / motor.R
+        b = b_load + (motor.b + motor.k_t * motor.k_e / motor.R) * ratio**2
+        return cls(m=m_load + motor.J * ratio**2, b=b, k_u=k_u, **kw)
+
+    def vector(self, n: int) -> np.ndarray:
+        """Flat ``(n, len(PNAMES))`` array for the compiled kernel."""
+        out = np.empty((n, len(PNAMES)))
+        for i, name in enumerate(PNAMES):
+            out[:, i] = np.broadcast_to(np.asarray(getattr(self, name), dtype=np.float64), (n,))
+        return out
+
+
+@numba.njit(cache=True)
+def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, out: np.ndarray) -> None:
+    m, b, k_u, tau_e = P[0], P[1], P[2], P[3]
+    F_c, F_s, v_s, v_eps, F_0 = P[4], P[5], P[6], P[7], P[8]
+    k_c, c_c, frac, bl, eta, F_h, sig, k_ct = P[9], P[10], P[11], P[12], P[13], P[14], P[15], P[16]
+    xl, vl, xm, vm, F, h = s[0], s[1], s[2], s[3], s[4], s[5]
+    if tau_e > 0.0:
+        Fm = F
+        out[4] = (k_u * u - F) / tau_e
+    else:
+        Fm = k_u * u
+        out[4] = 0.0
+    vmot = vm if two_mass else vl
+    if eta < 1.0:
+        w = 0.5 * (1.0 + np.tanh(Fm * vmot / (abs(Fm) * v_eps + 1e-12)))  # 1: motor drives, 0: back-driven
+        Fm = Fm * (w * eta + (1.0 - w) / eta)
+    Ff = (F_c + F_s * np.exp(-(vl / v_s) ** 2)) * np.tanh(vl / v_eps) + b * vl
+    if F_h > 0.0:
+        out[5] = sig * (vl - abs(vl) * h / F_h)
+    else:
+        out[5] = 0.0
+    load = Ff + F_0 + h - fext
+    if two_mass:
+        mm = frac * m
+        ml = (1.0 - frac) * m
+        k = k_c if k_c > 0.0 else (k_ct if k_ct > 0.0 else 4.0 * np.pi**2 * 900.0 * m)
+        d = xm - xl
+        g = 0.5 * bl
+        if g > 0.0:
+            th = np.tanh(d / g)
+            dz = d - g * th
+            ddz = th * th
+        else:
+            dz = d
+            ddz = 1.0
+        Ft = k * dz + c_c * (vm - vl) * ddz
+        out[0] = vl
+        out[1] = (Ft - load) / ml
+        out[2] = vm
+        out[3] = (Fm - Ft) / mm
+    else:
+        a = (Fm - load) / m
+        out[0] = vl
+        out[1] = a
+        out[2] = vl
+        out[3] = a
+
+
+@numba.njit(cache=True)
+def _transmitted(P: np.ndarray, s: np.ndarray, u: float, two_mass: bool) -> float:
+    """Force the drive delivers to the load (N), for the ``force`` observable."""
+    if two_mass:
+        k = P[9] if P[9] > 0.0 else (P[16] if P[16] > 0.0 else 4.0 * np.pi**2 * 900.0 * P[0])
+        d = s[2] - s[0]
+        g = 0.5 * P[12]
+        if g > 0.0:
+            th = np.tanh(d / g)
+            return k * (d - g * th) + P[10] * (s[3] - s[1]) * th * th
+        return k * d + P[10] * (s[3] - s[1])
+    return s[4] if P[3] > 0.0 else P[2] * u
+
+
+@numba.njit(cache=True)
+def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarray, ref: np.ndarray,
+                    ff: np.ndarray, ctrl: np.ndarray, dt: float, n_sub: int) -> np.ndarray:
+    """Roll out ``n`` drives over ``T`` samples; returns observables ``(T, n, len(OBS))`` at the sample times.
+
+    ``ctrl = [mode, kp, kv, sat]``: mode 0 replays ``u`` open loop; mode 1 is the EMPS cascade
+    ``u_k = clip(kp kv (ref_k - q_k) - kv (q_k - q_{k-2}) / (2 dt), +-sat) + ff_k`` on the simulated
+    motor position ``q``.
+    """
+    n = P.shape[0]
+    T = u.shape[0]
+    y = np.empty((T, n, 5))
+    h = dt / n_sub
+    k1 = np.empty(N_STATE)
+    k2 = np.empty(N_STATE)
+    k3 = np.empty(N_STATE)
+    k4 = np.empty(N_STATE)
+    tmp = np.empty(N_STATE)
+    for i in range(n):
+        Pi = P[i]
+        two_mass = Pi[9] > 0.0 or Pi[12] > 0.0
+        s = x0[i].copy()
+        q1 = s[2]
+        q2 = s[2]
+        for k in range(T):
+            if ctrl[0] == 1.0:
+                q = s[2]
+                if k == 0:
+                    q1 = q
+                    q2 = q
+                dq = (q - q2) / (2.0 * dt)
+                uk = ctrl[1] * ctrl[2] * (ref[k] - q) - ctrl[2] * dq
+                uk = min(max(uk, -ctrl[3]), ctrl[3]) + ff[k]
+                q2 = q1
+                q1 = q
+            else:
+                uk = u[k]
+            y[k, i, 0] = s[0]
+            y[k, i, 1] = s[1]
+            y[k, i, 2] = s[2]
+            y[k, i, 3] = _transmitted(Pi, s, uk, two_mass)
+            y[k, i, 4] = uk
+            fk = fext[k]
+            for _ in range(n_sub):
+                _rhs(Pi, s, uk, fk, two_mass, k1)
+                for j in range(N_STATE):
+                    tmp[j] = s[j] + 0.5 * h * k1[j]
+                _rhs(Pi, tmp, uk, fk, two_mass, k2)
+                for j in range(N_STATE):
+                    tmp[j] = s[j] + 0.5 * h * k2[j]
+                _rhs(Pi, tmp, uk, fk, two_mass, k3)
+                for j in range(N_STATE):
+                    tmp[j] = s[j] + h * k3[j]
+                _rhs(Pi, tmp, uk, fk, two_mass, k4)
+                for j in range(N_STATE):
+                    s[j] = s[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+    return y
+
+
+def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
+    """RK4 substeps that keep ``h |lambda| < 1.5`` for the fastest mode of every row."""
+    m = P[:, PIDX["m"]]
+    frac = P[:, PIDX["frac_m"]]
+    rates = [P[:, PIDX["b"]] / m,
+             (P[:, PIDX["F_c"]] + P[:, PIDX["F_s"]]) / (P[:, PIDX["v_eps"]] * m * (1 - frac + 1e-9)),
+             np.where(P[:, PIDX["tau_e"]] > 0, 1.0 / np.maximum(P[:, PIDX["tau_e"]], 1e-12), 0.0),
+             P[:, PIDX["sigma_h"]] * vmax / np.maximum(P[:, PIDX["F_h"]], 1e-12) * (P[:, PIDX["F_h"]] > 0)]
+    two = (P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0)
+    k = np.where(P[:, PIDX["k_c"]] > 0, P[:, PIDX["k_c"]],
+                 np.where(P[:, PIDX["k_contact"]] > 0, P[:, PIDX["k_contact"]], 4 * np.pi**2 * 900 * m))
+    mmin = np.minimum(frac, 1 - frac) * m
+    rates.append(np.where(two, np.sqrt(k / mmin) + P[:, PIDX["c_c"]] / mmin, 0.0))
+    lam = float(np.max(np.concatenate([np.atleast_1d(r) for r in rates])))
+    return int(max(base, np.ceil(lam * dt / 1.5)))
+
+
+def simulate(P: np.ndarray, u: np.ndarray, dt: float, *, x0: np.ndarray | None = None,
+             fext: np.ndarray | None = None, ref: np.ndarray | None = None, ff: np.ndarray | None = None,
+             controller: tuple[float, float, float] | None = None, n_sub: int | None = None) -> np.ndarray:
+    """Batched roll-out (see :func:`simulate_kernel`); ``P`` is ``(n, len(PNAMES))``, ``u`` is ``(T,)``."""
+    P = np.ascontiguousarray(np.atleast_2d(P), dtype=np.float64)
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    T, n = u.shape[0], P.shape[0]
+    z = np.zeros(T)
+    x0 = np.zeros((n, N_STATE)) if x0 is None else np.ascontiguousarray(np.broadcast_to(x0, (n, N_STATE)),
+                                                                         dtype=np.float64)
+    ctrl = np.zeros(4) if controller is None else np.array([1.0, *controller])
+    ns = substeps(P, dt) if n_sub is None else int(n_sub)
+    return simulate_kernel(P, x0.copy(), u, z if fext is None else np.ascontiguousarray(fext, dtype=np.float64),
+                           z if ref is None else np.ascontiguousarray(ref, dtype=np.float64),
+                           z if ff is None else np.ascontiguousarray(ff, dtype=np.float64), ctrl, float(dt), ns)

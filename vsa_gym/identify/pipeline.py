@@ -1,0 +1,495 @@
+"""Replay, diagnosis, honest selection and report of model effects (estimator API).
+
+``Identifier(...).fit(record, test_record=None)`` returns an :class:`IdentificationResult`.
+
+1. Replay the nominal model (free base parameters refitted by simulation-error least squares).
+2. Rank the candidate effects by regressing the residual on their signatures
+   (secant sensitivities from one batched replay), fit the best few by
+   simulation-error least squares (scipy ``least_squares``, Jacobian from one batched
+   replay per iteration), with 95 % confidence intervals from the Jacobian, inflated
+   by the residual's lag-1 autocorrelation (effective sample size).
+3. Accept an effect only if (a) the validation error drops by ``margin``, (b) BIC
+   drops, (c) the CI of its main parameter excludes "absent", (d) no new parameter is
+   stuck at a bound.  Then look for a further effect (up to ``max_effects``).
+4. Score nominal and final model once on the held-out test part.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import least_squares
+
+from vsa_gym.identify.adapters import Adapter, make_adapter
+from vsa_gym.identify.effects import EffectSpec, ParamSpec
+from vsa_gym.identify.record import Record
+
+
+# ----------------------------------------------------------------------------- metrics
+def output_metrics(meas: np.ndarray, sim: np.ndarray) -> dict[str, float]:
+    e = sim - meas
+    rmse = float(np.sqrt(np.mean(e**2)))
+    sd = float(np.std(meas)) or 1.0
+    fit = 100.0 * (1.0 - np.linalg.norm(e) / (np.linalg.norm(meas - meas.mean()) or 1.0))
+    return {"rmse": rmse, "nrmse": rmse / sd, "fit_percent": float(fit)}
+
+
+def _acf(x: np.ndarray, lags: int) -> np.ndarray:
+    x = x - x.mean()
+    d = float(np.dot(x, x)) or 1.0
+    return np.array([np.dot(x[:-k], x[k:]) / d for k in range(1, lags + 1)])
+
+
+def residual_tests(res: np.ndarray, u: np.ndarray, lags: int = 25) -> dict[str, float]:
+    """Whiteness (autocorrelation) and residual-input cross-correlation, with the 95 % bound 1.96/sqrt(N)."""
+    n = res.shape[0]
+    bound = 1.96 / math.sqrt(n)
+    acf = _acf(res, lags)
+    r = res - res.mean()
+    v = u - u.mean()
+    den = (np.linalg.norm(r) * np.linalg.norm(v)) or 1.0
+    xc = np.array([np.dot(r[k:], v[:n - k]) / den for k in range(lags + 1)])
+    return {"acf_max": float(np.max(np.abs(acf))), "acf_frac_outside": float(np.mean(np.abs(acf) > bound)),
+            "xcorr_input_max": float(np.max(np.abs(xc))), "bound": bound, "white": bool(np.mean(np.abs(acf) > bound)
+                                                                                         <= 0.1)}
+
+
+# ----------------------------------------------------------------------------- fitted models
+@dataclasses.dataclass
+class FittedModel:
+    """A model: effects, fitted values of all free keys, CIs, scores."""
+
+    effects: tuple[str, ...]
+    keys: list[str]
+    specs: list[ParamSpec]
+    values: np.ndarray
+    ci: np.ndarray  # (k, 2)
+    sse_fit: float
+    n_fit: int
+    val_score: float  # mean over outputs of rmse / std on the validation part
+    at_bound: list[str]
+    rho: float = 0.0
+
+    @property
+    def bic(self) -> float:
+        return self.n_fit * math.log(max(self.sse_fit / self.n_fit, 1e-300)) + len(self.keys) * math.log(self.n_fit)
+
+    def theta(self) -> dict[str, float]:
+        return {k: float(v) for k, v in zip(self.keys, self.values, strict=True)}
+
+    def param(self, key: str) -> tuple[float, float, float]:
+        i = self.keys.index(key)
+        return float(self.values[i]), float(self.ci[i, 0]), float(self.ci[i, 1])
+
+
+@dataclasses.dataclass
+class Candidate:
+    round: int
+    name: str
+    score: float  # share of residual SSE explained by the signature (ranking)
+    fitted: bool = False
+    val_score: float = float("nan")
+    bic: float = float("nan")
+    ci_excludes_absent: bool = False
+    at_bound: bool = False
+    accepted: bool = False
+    reason: str = ""
+    values: dict[str, float] = dataclasses.field(default_factory=dict)
+
+
+class _Problem:
+    """Simulation-error least squares over some keys on one adapter."""
+
+    def __init__(self, ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[ParamSpec],
+                 mask: np.ndarray) -> None:
+        self.ad, self.fixed, self.keys, self.specs, self.mask = ad, fixed, keys, specs, mask
+        self.scale = np.array([abs(s.typical - s.absent) or abs(s.typical) or 1.0 for s in specs])
+        self.offs = np.array([s.absent for s in specs])
+        self.sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(ad.measured.shape[1])])
+        self._cache: tuple[bytes, np.ndarray] | None = None
+
+    def to_p(self, x: np.ndarray) -> np.ndarray:
+        return self.offs + self.scale * x
+
+    def to_x(self, p: np.ndarray) -> np.ndarray:
+        return (np.asarray(p) - self.offs) / self.scale
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo = self.to_x(np.array([s.lower for s in self.specs]))
+        hi = self.to_x(np.array([s.upper for s in self.specs]))
+        return lo, hi
+
+    def batch(self, X: np.ndarray) -> np.ndarray:
+        """Residuals (normalised, fit part) of rows ``X`` (n, k) -> (n, N)."""
+        n = X.shape[0]
+        theta = {k: np.full(n, v) for k, v in self.fixed.items()}
+        P = self.offs + self.scale * X
+        for i, k in enumerate(self.keys):
+            theta[k] = P[:, i]
+        y = self.ad.simulate(theta, n)
+        r = (y[self.mask] - self.ad.measured[self.mask][:, None, :]) / self.sd
+        r = np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
+        return np.transpose(r, (1, 0, 2)).reshape(n, -1)
+
+    def fun(self, x: np.ndarray) -> np.ndarray:
+        return self._both(x)[0]
+
+    def jac(self, x: np.ndarray) -> np.ndarray:
+        return self._both(x)[1]
+
+    def _both(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        key = x.tobytes()
+        if self._cache is not None and self._cache[0] == key:
+            return self._cache[1]  # type: ignore[return-value]
+        lo, hi = self.bounds()
+        h = 1e-3 * np.maximum(1.0, np.abs(x))
+        step = np.where(x + h > hi, -h, h)
+        X = np.vstack([x, x + np.diag(step)])
+        R = self.batch(X)
+        J = ((R[1:] - R[0]) / step[:, None]).T
+        out = (R[0], J)
+        self._cache = (key, out)  # type: ignore[assignment]
+        return out
+
+
+def _fit(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[ParamSpec], init: dict[str, float],
+         masks: dict[str, np.ndarray], effects: tuple[str, ...], max_nfev: int) -> FittedModel:
+    prob = _Problem(ad, fixed, keys, specs, masks["fit"])
+    lo, hi = prob.bounds()
+    x0 = np.clip(prob.to_x(np.array([init[k] for k in keys])), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+    if keys:
+        sol = least_squares(prob.fun, x0, jac=prob.jac, bounds=(lo, hi), method="trf", max_nfev=max_nfev,
+                            x_scale=1.0, xtol=1e-8, ftol=1e-10)
+        x = sol.x
+        r, J = prob._both(x)
+    else:
+        x = np.zeros(0)
+        r = prob.batch(np.zeros((1, 0)))[0]
+        J = np.zeros((r.size, 0))
+    p = prob.to_p(x)
+    sse = float(np.dot(r, r))
+    N = r.size
+    # effective sample size from the lag-1 autocorrelation of the residual
+    rho = float(np.clip(_acf(r, 1)[0], 0.0, 0.999)) if N > 2 else 0.0
+    infl = (1 + rho) / (1 - rho)
+    ci = np.zeros((len(keys), 2))
+    if keys:
+        s2 = sse / max(N - len(keys), 1)
+        try:
+            cov = np.linalg.pinv(J.T @ J) * s2 * infl
+        except np.linalg.LinAlgError:
+            cov = np.full((len(keys), len(keys)), np.inf)
+        se = np.sqrt(np.maximum(np.diag(cov), 0.0)) * prob.scale
+        ci = np.stack([p - 1.96 * se, p + 1.96 * se], axis=1)
+    at_bound = [k for k, xi, a, b in zip(keys, x, lo, hi, strict=True) if min(xi - a, b - xi) < 1e-3 * (b - a)]
+    val = masks.get("validation", masks["fit"])
+    theta = {**{k: np.array([v]) for k, v in fixed.items()}, **{k: np.array([v]) for k, v in zip(keys, p,
+                                                                                                  strict=True)}}
+    y = ad.simulate(theta, 1)[:, 0, :]
+    score = float(np.mean([output_metrics(ad.measured[val, j], y[val, j])["nrmse"]
+                           for j in range(y.shape[1])]))
+    return FittedModel(effects, list(keys), list(specs), p, ci, sse, N, score, at_bound, rho)
+
+
+# ----------------------------------------------------------------------------- result
+@dataclasses.dataclass
+class IdentificationResult:
+    record: Record
+    adapter: Adapter
+    nominal: FittedModel
+    final: FittedModel
+    candidates: list[Candidate]
+    metrics_before: dict[str, dict[str, float]]
+    metrics_after: dict[str, dict[str, float]]
+    diagnostics_before: dict[str, Any]
+    diagnostics_after: dict[str, Any]
+    test_name: str
+    test_data: dict[str, np.ndarray]  # t, measured, nominal, extended (held-out part)
+    unexplained: float  # share of the nominal validation residual that remains
+
+    @property
+    def effects(self) -> list[dict[str, Any]]:
+        out = []
+        for name in self.final.effects:
+            spec = self.adapter.effects[name]
+            params, ci = {}, {}
+            for p in spec.params:
+                v, lo, hi = self.final.param(f"{name}.{p.name}")
+                params[p.name] = v
+                ci[p.name] = [lo, hi]
+            out.append({"name": name, "location": spec.location, "parameters": params, "ci": ci,
+                        "units": {p.name: p.unit for p in spec.params}})
+        return out
+
+    def statements(self) -> list[str]:
+        """The causes in words."""
+        if not self.effects:
+            return [f"No significant effect: the nominal model is kept; {100 * self.unexplained:.0f} % of the "
+                    "validation residual variance remains unexplained (noise and unmodelled effects)."]
+        lines = []
+        for e in self.effects:
+            spec = self.adapter.effects[e["name"]]
+            main = next(p for p in spec.params if p.main)
+            v = e["parameters"][main.name]
+            lo, hi = e["ci"][main.name]
+            unit = f" {main.unit}" if main.unit and main.unit != "-" else ""
+            lines.append(f"{spec.description[0].upper()}{spec.description[1:]} {spec.location}: {main.name} = "
+                         f"{v:.4g}{unit} (95 % CI {lo:.4g}–{hi:.4g})")
+        lines.append(f"{100 * self.unexplained:.2g} % of the nominal validation residual variance remains "
+                     "unexplained.")
+        return lines
+
+    def to_frame(self) -> pd.DataFrame:
+        """Before/after metrics per output on the held-out data."""
+        rows = []
+        for out, m in self.metrics_before.items():
+            a = self.metrics_after[out]
+            rows.append({"output": out, "rmse_before": m["rmse"], "rmse_after": a["rmse"], "nrmse_before": m["nrmse"],
+                         "nrmse_after": a["nrmse"], "fit_before_%": m["fit_percent"], "fit_after_%": a["fit_percent"]})
+        return pd.DataFrame(rows)
+
+    def candidates_frame(self) -> pd.DataFrame:
+        return pd.DataFrame([dataclasses.asdict(c) for c in self.candidates])
+
+    def extended_model(self) -> dict[str, Any]:
+        theta = self.final.theta()
+        desc = getattr(self.adapter, "describe_model", None)
+        return {"device": self.record.device, "params": desc(theta) if desc else theta, "effects": self.effects}
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "record": self.record.path, "device": self.record.device, "experiment": self.record.experiment,
+            "test": self.test_name, "statements": self.statements(), "effects": self.effects,
+            "metrics": {"before": self.metrics_before, "after": self.metrics_after},
+            "diagnostics": {"before": self.diagnostics_before, "after": self.diagnostics_after},
+            "unexplained_fraction": self.unexplained,
+            "nominal_params": self.nominal.theta(), "final_params": self.final.theta(),
+            "candidates": [dataclasses.asdict(c) for c in self.candidates],
+            "extended_model": self.extended_model(),
+        }
+
+    def to_json(self, path: str | Path) -> None:
+        Path(path).write_text(json.dumps(self.to_dict(), indent=2, default=float) + "\n")
+
+    def plot(self, out_dir: str | Path) -> list[Path]:
+        """Measured vs nominal vs extended, and the residual before and after (held-out part)."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        d = self.test_data
+        names = list(self.metrics_before)
+        files = []
+        fig, axes = plt.subplots(2 * len(names), 1, figsize=(9, 3.2 * 2 * len(names)), sharex=True, squeeze=False)
+        for j, name in enumerate(names):
+            ax = axes[2 * j, 0]
+            ax.plot(d["t"], d["measured"][:, j], "k", lw=1, label="measured")
+            ax.plot(d["t"], d["nominal"][:, j], "C0", lw=1, label="nominal")
+            ax.plot(d["t"], d["extended"][:, j], "C3--", lw=1, label="extended")
+            ax.set_ylabel(name)
+            ax.legend(loc="best", fontsize=8)
+            ax = axes[2 * j + 1, 0]
+            ax.plot(d["t"], d["nominal"][:, j] - d["measured"][:, j], "C0", lw=0.8, label="residual before")
+            ax.plot(d["t"], d["extended"][:, j] - d["measured"][:, j], "C3", lw=0.8, label="residual after")
+            ax.set_ylabel(f"{name} residual")
+            ax.legend(loc="best", fontsize=8)
+        axes[-1, 0].set_xlabel("t [s]")
+        fig.suptitle(f"{self.record.experiment}: held-out {self.test_name}")
+        fig.tight_layout()
+        f = out / "identification.png"
+        fig.savefig(f, dpi=110)
+        plt.close(fig)
+        files.append(f)
+        return files
+
+    def report_markdown(self) -> str:
+        lines = [f"# Identification of {self.record.experiment} ({self.record.device})", ""]
+        lines += [f"- {s}" for s in self.statements()]
+        lines += ["", f"Held-out data: {self.test_name}.", "", self.to_frame().to_markdown(index=False, floatfmt=".4g")
+                  if _has_tabulate() else self.to_frame().to_string(index=False), ""]
+        lines += ["## Candidates", "", self.candidates_frame().drop(columns=["values"]).to_string(index=False)]
+        return "\n".join(lines) + "\n"
+
+
+def _has_tabulate() -> bool:
+    try:
+        import tabulate  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+# ----------------------------------------------------------------------------- estimator
+@dataclasses.dataclass
+class Identifier:
+    """Find the effect(s) a record demands (see the module docstring)."""
+
+    max_effects: int = 2
+    n_fit: int = 3
+    margin: float = 0.02
+    candidates: Sequence[str] | None = None
+    max_nfev: int = 25
+    replay: str | None = None
+    result_: IdentificationResult | None = None
+
+    def fit(self, record: Record, test_record: Record | None = None) -> Identifier:
+        kw = {"replay": self.replay} if self.replay else {}
+        ad = make_adapter(record, **kw)
+        masks = record.masks()
+        if "validation" not in masks:
+            raise ValueError("the record's split needs a validation part (fractions) for honest selection")
+        base_keys = [f"base.{b.name}" for b in ad.base]
+        nominal = _fit(ad, {}, base_keys, list(ad.base), {k: b.absent for k, b in zip(base_keys, ad.base,
+                                                                                       strict=True)},
+                       masks, (), self.max_nfev)
+        names = [c for c in (self.candidates or ad.effects) if c in ad.effects]
+        current = nominal
+        cands: list[Candidate] = []
+        for rnd in range(1, self.max_effects + 1):
+            remaining = [c for c in names if c not in current.effects]
+            if not remaining:
+                break
+            ranked = self._rank(ad, current, remaining, masks["fit"])
+            best: tuple[FittedModel, Candidate] | None = None
+            for k, (name, score) in enumerate(ranked):
+                cand = Candidate(rnd, name, score)
+                cands.append(cand)
+                if k >= self.n_fit:
+                    cand.reason = "not fitted (low rank)"
+                    continue
+                spec = ad.effects[name]
+                keys = current.keys + list(spec.keys)
+                specs = current.specs + list(spec.params)
+                init = {**current.theta(), **{k2: p.typical for k2, p in zip(spec.keys, spec.params, strict=True)}}
+                fm = _fit(ad, {}, keys, specs, init, masks, (*current.effects, name), self.max_nfev)
+                cand.fitted = True
+                cand.val_score, cand.bic = fm.val_score, fm.bic
+                cand.values = {k2: fm.param(k2)[0] for k2 in spec.keys}
+                main = [(k2, p) for k2, p in zip(spec.keys, spec.params, strict=True) if p.main]
+                cand.ci_excludes_absent = all(not (fm.param(k2)[1] <= p.absent <= fm.param(k2)[2])
+                                              for k2, p in main)
+                cand.at_bound = any(k2 in fm.at_bound for k2 in spec.keys)
+                reasons = []
+                if not fm.val_score < (1 - self.margin) * current.val_score:
+                    reasons.append(f"validation error {fm.val_score:.4g} vs {current.val_score:.4g} "
+                                   f"(needs -{100 * self.margin:.0f} %)")
+                if not fm.bic < current.bic:
+                    reasons.append("BIC not improved")
+                if not cand.ci_excludes_absent:
+                    reasons.append("CI includes absent")
+                if cand.at_bound:
+                    reasons.append("parameter at a bound")
+                cand.accepted = not reasons
+                cand.reason = "; ".join(reasons) if reasons else "passes all criteria"
+                if cand.accepted and (best is None or fm.val_score < best[0].val_score):
+                    best = (fm, cand)
+            for c in cands:
+                if c.round == rnd and c.accepted and best is not None and c is not best[1]:
+                    c.accepted = False
+                    c.reason = "passes, but another candidate validates better"
+            if best is None:
+                break
+            current = best[0]
+        self.result_ = self._score(record, ad, nominal, current, cands, masks, test_record)
+        return self
+
+    def _rank(self, ad: Adapter, cur: FittedModel, names: list[str], mask: np.ndarray) -> list[tuple[str, float]]:
+        """Share of the residual's SSE each candidate's signature explains beyond the free parameters."""
+        theta0 = cur.theta()
+        rows: list[dict[str, float]] = [dict(theta0)]
+        for k, s in zip(cur.keys, cur.specs, strict=True):  # sensitivities of the already-free parameters
+            rows.append({**theta0, k: theta0[k] + 0.01 * (abs(s.typical - s.absent) or 1.0)})
+        for name in names:
+            spec = ad.effects[name]
+            rows.append({**theta0, **{k: p.typical for k, p in zip(spec.keys, spec.params, strict=True)}})
+        keys = sorted({k for r in rows for k in r})
+        n = len(rows)
+        theta = {}
+        for k in keys:
+            default = next((p.absent for nm in ad.effects for kk, p in zip(ad.effects[nm].keys, ad.effects[nm].params,
+                                                                            strict=True) if kk == k), None)
+            if default is None:
+                default = theta0.get(k, 0.0)
+            theta[k] = np.array([r.get(k, default) for r in rows])
+        y = ad.simulate(theta, n)
+        sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(y.shape[2])])
+        Y = (y[mask] / sd).transpose(1, 0, 2).reshape(n, -1)
+        r = ((ad.measured[mask] / sd).reshape(-1) - Y[0])
+        nb = len(cur.keys)
+        B = (Y[1:1 + nb] - Y[0]).T
+        base_sse = _lstsq_sse(B, r)
+        scores = []
+        for i, name in enumerate(names):
+            S = np.column_stack([B, Y[1 + nb + i] - Y[0]])
+            scores.append((name, float((base_sse - _lstsq_sse(S, r)) / (base_sse or 1.0))))
+        return sorted(scores, key=lambda s: -s[1])
+
+    def _score(self, record: Record, ad: Adapter, nominal: FittedModel, final: FittedModel,
+               cands: list[Candidate], masks: dict[str, np.ndarray],
+               test_record: Record | None) -> IdentificationResult:
+        if test_record is not None:
+            tad = ad.for_record(test_record)
+            skip = int(test_record.meta.get("skip_samples", 0))
+            tm = test_record.masks().get("test")
+            if tm is None:
+                tm = np.zeros(len(test_record), dtype=bool)
+                tm[skip:] = True
+            name = f"test record {Path(test_record.path).name} (samples {int(np.argmax(tm))}…{len(test_record) - 1})"
+        elif "test" in masks:
+            tad, tm = ad, masks["test"]
+            name = "test part of the record"
+        else:
+            tad, tm = ad, masks["validation"]
+            name = "validation part of the record (no test part given)"
+
+        def sim(fm: FittedModel) -> np.ndarray:
+            return tad.simulate({k: np.array([v]) for k, v in fm.theta().items()}, 1)[:, 0, :]
+
+        y0, y1 = sim(nominal), sim(final)
+        meas = tad.measured
+        before, after, dbef, daft = {}, {}, {}, {}
+        u = getattr(tad, "u", np.zeros(len(tad.t)))
+        for j, s in enumerate(tad.outputs):
+            before[s.column] = output_metrics(meas[tm, j], y0[tm, j])
+            after[s.column] = output_metrics(meas[tm, j], y1[tm, j])
+            dbef[s.column] = residual_tests(y0[tm, j] - meas[tm, j], u[tm])
+            daft[s.column] = residual_tests(y1[tm, j] - meas[tm, j], u[tm])
+        unexplained = (final.val_score / nominal.val_score) ** 2 if nominal.val_score > 0 else 0.0
+        data = {"t": tad.t[tm], "measured": meas[tm], "nominal": y0[tm], "extended": y1[tm]}
+        return IdentificationResult(record, ad, nominal, final, cands, before, after, dbef, daft, name, data,
+                                    float(unexplained))
+
+
+def _lstsq_sse(A: np.ndarray, r: np.ndarray) -> float:
+    if A.shape[1] == 0:
+        return float(np.dot(r, r))
+    coef, *_ = np.linalg.lstsq(A, r, rcond=None)
+    e = r - A @ coef
+    return float(np.dot(e, e))
+
+
+def identify(data: str, *, max_effects: int = 2, replay: str | None = None, candidates: Sequence[str] | None = None,
+             ) -> IdentificationResult:
+    """Identify a record given by path or shipped name (``emps`` fits on the training record, scores on the test)."""
+    from vsa_gym.identify.record import load_record, resolve
+
+    fit_path, test_path = resolve(data)
+    rec = load_record(fit_path)
+    test = load_record(test_path) if test_path else None
+    est = Identifier(max_effects=max_effects, replay=replay, candidates=candidates).fit(rec, test)
+    assert est.result_ is not None
+    return est.result_
+
+
+__all__ = ["Identifier", "IdentificationResult", "FittedModel", "Candidate", "identify", "output_metrics",
+           "residual_tests", "EffectSpec"]

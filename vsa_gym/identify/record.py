@@ -1,0 +1,347 @@
+"""Measured records: a CSV (or Parquet) table plus a JSON sidecar, loading and checking.
+
+The format is documented in ``docs/measured-data.md``.  In short: the table has a
+time column ``t`` (s, strictly increasing, uniformly sampled) and named signal
+columns; the sidecar ``<table>.json`` names the device, the experiment, which
+columns are inputs (they drive the replay) and which are outputs (they are
+compared), their physical quantity, unit and sensor, the closed-loop controller
+if any, the nominal model and its free parameters, the initial state and the
+split into fit / validation / test parts.
+
+:func:`check_record` returns every problem it finds (never stops at the first);
+:func:`load_record` raises :class:`RecordError` listing them all.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+FORMAT = "vsa-gym/measured-data/1"
+DEVICES = ("drive", "vsaut2", "elpas")
+
+#: input quantities per device and their allowed units
+INPUTS: dict[str, dict[str, tuple[str, ...]]] = {
+    "drive": {
+        "voltage": ("V",),  # amplifier command, drive force = k_u * voltage
+        "current": ("A",),  # current command of a current-mode amplifier, force = k_u * current
+        "force": ("N", "N m"),  # motor force / torque at the load, given directly
+        "external_force": ("N", "N m"),
+        "feedforward": ("V", "A", "N", "N m"),  # added to the controller output (closed loop)
+        "reference": ("m", "rad"),  # position reference of a closed loop
+    },
+    "vsaut2": {
+        "voltage_pivot": ("V",),
+        "voltage_frame": ("V",),
+        "current_frame": ("A",),  # current-mode amplifier on the frame motor
+        "external_torque": ("N m",),
+    },
+    "elpas": {
+        "voltage": ("V",),
+        "alpha": ("rad",),  # imposed wishbone angle (hydropulse rig)
+        "force_reference": ("N",),  # closed-loop force reference
+    },
+}
+
+#: output quantities per device and their allowed units
+OUTPUTS: dict[str, dict[str, tuple[str, ...]]] = {
+    "drive": {
+        "position": ("m", "rad"),
+        "velocity": ("m/s", "rad/s"),
+        "speed_abs": ("m/s", "rad/s", "au"),  # rectified speed (a sensor blind to the sign)
+        "force": ("N", "N m"),  # transmitted force / torque
+        "controller_output": ("V", "A", "N", "N m"),
+    },
+    "vsaut2": {
+        "r": ("rad",),  # output link angle
+        "q2": ("rad",),  # frame angle
+        "phi": ("rad",),  # deflection r - q2
+        "tau_out": ("N m",),  # elastic torque on the output
+        "i2": ("A",),  # frame motor current
+    },
+    "elpas": {
+        "force": ("N",),  # actuator force F_act
+        "gamma": ("rad",),  # arm angle
+        "current": ("A",),
+        "voltage": ("V",),  # controller output of a closed loop
+    },
+}
+
+SHIPPED_DIR = Path(__file__).resolve().parent.parent / "data"
+#: shipped record names -> (fit record, test record or None)
+SHIPPED: dict[str, tuple[str, str | None]] = {
+    "emps": ("emps/emps_train.csv", "emps/emps_test.csv"),
+    "emps-train": ("emps/emps_train.csv", None),
+    "emps-test": ("emps/emps_test.csv", None),
+    "ced-1": ("ced/ced_unif_1.csv", None),
+    "ced-2": ("ced/ced_unif_2.csv", None),
+    "ced": ("ced/ced_unif_1.csv", None),
+}
+
+
+class RecordError(ValueError):
+    """A record that does not pass :func:`check_record`; ``problems`` lists every finding."""
+
+    def __init__(self, path: str, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__(f"{path}: {len(problems)} problem(s):\n  - " + "\n  - ".join(problems))
+
+
+@dataclasses.dataclass(frozen=True)
+class Signal:
+    """One declared column."""
+
+    column: str
+    quantity: str
+    unit: str
+    sensor: str = ""
+    resolution: float = 0.0  # quantisation step of the sensor (same unit), 0 = unknown / none
+
+
+@dataclasses.dataclass
+class Record:
+    """A loaded, checked measured record."""
+
+    path: str
+    meta: dict[str, Any]
+    t: np.ndarray
+    data: pd.DataFrame
+    inputs: dict[str, Signal]  # keyed by quantity
+    outputs: dict[str, Signal]  # keyed by quantity
+
+    @property
+    def device(self) -> str:
+        return str(self.meta["device"])
+
+    @property
+    def experiment(self) -> str:
+        return str(self.meta.get("experiment", ""))
+
+    @property
+    def dt(self) -> float:
+        return float(np.median(np.diff(self.t)))
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def input(self, quantity: str) -> np.ndarray:
+        return self.data[self.inputs[quantity].column].to_numpy(dtype=np.float64)
+
+    def output(self, quantity: str) -> np.ndarray:
+        return self.data[self.outputs[quantity].column].to_numpy(dtype=np.float64)
+
+    @property
+    def controller(self) -> dict[str, Any] | None:
+        return self.meta.get("controller")
+
+    @property
+    def model(self) -> dict[str, Any]:
+        return dict(self.meta.get("model", {}))
+
+    def masks(self) -> dict[str, np.ndarray]:
+        """Boolean masks of the fit / validation / test parts (``split`` in the sidecar, fractions of the record)."""
+        split = self.meta.get("split", {"fit": [0.0, 0.7], "validation": [0.7, 1.0]})
+        n = len(self)
+        skip = int(self.meta.get("skip_samples", 0))
+        out = {}
+        for part, rng in split.items():
+            if rng is None:
+                continue
+            a, b = int(round(rng[0] * n)), int(round(rng[1] * n))
+            m = np.zeros(n, dtype=bool)
+            m[max(a, skip):b] = True
+            out[part] = m
+        return out
+
+    def to_frame(self) -> pd.DataFrame:
+        return self.data.copy()
+
+
+def sidecar_path(path: str | Path) -> Path:
+    p = Path(path)
+    return p.with_suffix(".json")
+
+
+def resolve(name_or_path: str) -> tuple[Path, Path | None]:
+    """A file path, or a shipped record name (``emps``, ``ced-1``, ...) -> (fit record, test record)."""
+    if name_or_path in SHIPPED:
+        fit, test = SHIPPED[name_or_path]
+        return SHIPPED_DIR / fit, (SHIPPED_DIR / test if test else None)
+    return Path(name_or_path), None
+
+
+def _read_table(path: Path) -> pd.DataFrame:
+    if path.suffix.lower() in (".parquet", ".pq"):
+        try:
+            return pd.read_parquet(path)
+        except ImportError as exc:
+            raise RecordError(str(path), [f"Parquet needs pyarrow or fastparquet installed ({exc})"]) from exc
+    return pd.read_csv(path)
+
+
+def check_record(path: str | Path, table: pd.DataFrame | None = None,
+                 meta: Mapping[str, Any] | None = None) -> list[str]:
+    """Every problem of the record at ``path`` (empty list: the record is valid).
+
+    ``table`` / ``meta`` may be given instead of being read from disk (the
+    generator checks its records before writing them).
+    """
+    problems: list[str] = []
+    path = Path(path)
+    if meta is None:
+        sc = sidecar_path(path)
+        if not sc.exists():
+            return [f"sidecar {sc.name} not found next to {path.name}"]
+        try:
+            meta = json.loads(sc.read_text())
+        except json.JSONDecodeError as exc:
+            return [f"sidecar {sc.name} is not valid JSON: {exc}"]
+    if table is None:
+        if not path.exists():
+            return [f"data file {path} not found"]
+        try:
+            table = _read_table(path)
+        except Exception as exc:  # noqa: BLE001 -- any parse failure is a problem to report
+            return [f"cannot read {path.name}: {exc}"]
+    if not isinstance(meta, Mapping):
+        return ["sidecar must be a JSON object"]
+    if meta.get("format") != FORMAT:
+        problems.append(f"sidecar 'format' must be {FORMAT!r}, got {meta.get('format')!r}")
+    device = meta.get("device")
+    if device not in DEVICES:
+        problems.append(f"unknown device {device!r}; use one of {DEVICES}")
+        return problems
+    if not meta.get("experiment"):
+        problems.append("sidecar 'experiment' is missing or empty")
+
+    # time
+    tspec = meta.get("time", {"column": "t", "unit": "s"})
+    tcol = tspec.get("column", "t")
+    if tspec.get("unit", "s") != "s":
+        problems.append(f"time column {tcol!r}: unit must be 's', got {tspec.get('unit')!r}")
+    if tcol not in table.columns:
+        problems.append(f"missing time column {tcol!r}")
+    else:
+        t = pd.to_numeric(table[tcol], errors="coerce").to_numpy(dtype=np.float64)
+        if np.any(~np.isfinite(t)):
+            problems.append(f"time column {tcol!r}: NaN or non-numeric at row {int(np.argmax(~np.isfinite(t)))}")
+        else:
+            dtv = np.diff(t)
+            if np.any(dtv <= 0):
+                k = int(np.argmax(dtv <= 0))
+                problems.append(f"time column {tcol!r} is not strictly increasing at row {k + 1} "
+                                f"(t = {t[k]:.9g} then {t[k + 1]:.9g})")
+            elif dtv.size and np.max(np.abs(dtv - np.median(dtv))) > 0.01 * np.median(dtv):
+                problems.append(f"time column {tcol!r}: sampling is not uniform (step varies by more than 1 %; "
+                                "resample to a fixed step)")
+        if len(table) < 10:
+            problems.append(f"record has only {len(table)} rows")
+
+    # signals
+    declared: dict[str, str] = {}
+    for role, catalogue in (("inputs", INPUTS[device]), ("outputs", OUTPUTS[device])):
+        spec = meta.get(role)
+        if not isinstance(spec, Mapping) or not spec:
+            problems.append(f"sidecar '{role}' must map column names to {{quantity, unit, sensor}}")
+            continue
+        seen: set[str] = set()
+        for col, s in spec.items():
+            if not isinstance(s, Mapping):
+                problems.append(f"{role} column {col!r}: expected an object with quantity and unit")
+                continue
+            q, unit = s.get("quantity"), s.get("unit")
+            if q not in catalogue:
+                kind = "an input" if role == "inputs" else "an output"
+                problems.append(f"{role} column {col!r}: {q!r} is not {kind} of device {device!r} "
+                                f"(allowed: {sorted(catalogue)})")
+            elif unit not in catalogue[q]:
+                problems.append(f"{role} column {col!r}: wrong unit {unit!r} for {q!r} (expected one of "
+                                f"{list(catalogue[q])})")
+            if q in seen:
+                problems.append(f"{role}: quantity {q!r} declared twice")
+            seen.add(str(q))
+            declared[col] = role
+            if col not in table.columns:
+                problems.append(f"missing column {col!r} (declared in {role})")
+                continue
+            v = pd.to_numeric(table[col], errors="coerce").to_numpy(dtype=np.float64)
+            bad = ~np.isfinite(v)
+            if np.any(bad):
+                problems.append(f"column {col!r}: {int(bad.sum())} NaN / non-numeric value(s), first at row "
+                                f"{int(np.argmax(bad))}")
+    ins = {s.get("quantity") for s in (meta.get("inputs") or {}).values() if isinstance(s, Mapping)}
+    if device == "drive" and ins and not ins & {"voltage", "current", "force", "reference"}:
+        problems.append("drive record needs a drive input: voltage, current, force or a closed-loop reference")
+    if device == "vsaut2" and ins and not ins & {"voltage_pivot", "voltage_frame", "current_frame",
+                                                 "external_torque"}:
+        problems.append("vsaut2 record needs a motor voltage / current or an external torque input")
+    if device == "elpas" and ins and "alpha" not in ins:
+        problems.append("elpas rig record needs the imposed wishbone angle 'alpha' as an input")
+
+    ctrl = meta.get("controller")
+    if ctrl is not None:
+        if not isinstance(ctrl, Mapping) or "type" not in ctrl:
+            problems.append("controller must be an object with a 'type'")
+        else:
+            for key in ("reference",):
+                col = ctrl.get(key)
+                if col is not None and col not in table.columns:
+                    problems.append(f"controller {key} column {col!r} is missing")
+    split = meta.get("split")
+    if split is not None:
+        if not isinstance(split, Mapping):
+            problems.append("split must map part names to [start, end] fractions")
+        else:
+            for part, rng in split.items():
+                if part not in ("fit", "validation", "test"):
+                    problems.append(f"split part {part!r}: use fit, validation or test")
+                if rng is None:
+                    continue
+                if (not isinstance(rng, list | tuple) or len(rng) != 2 or not 0 <= rng[0] < rng[1] <= 1):
+                    problems.append(f"split part {part!r}: expected [start, end] fractions with 0 <= start < end <= 1,"
+                                    f" got {rng!r}")
+            if "fit" not in split:
+                problems.append("split needs a 'fit' part")
+    return problems
+
+
+def load_record(path: str | Path, meta: Mapping[str, Any] | None = None,
+                table: pd.DataFrame | None = None) -> Record:
+    """Read and check a record; raises :class:`RecordError` naming every problem."""
+    path = Path(path)
+    problems = check_record(path, table=table, meta=meta)
+    if problems:
+        raise RecordError(str(path), problems)
+    if meta is None:
+        meta = json.loads(sidecar_path(path).read_text())
+    if table is None:
+        table = _read_table(path)
+    tcol = meta.get("time", {}).get("column", "t")
+    t = table[tcol].to_numpy(dtype=np.float64)
+
+    def sig(spec: Mapping[str, Any]) -> dict[str, Signal]:
+        return {s["quantity"]: Signal(col, s["quantity"], s["unit"], s.get("sensor", ""),
+                                      float(s.get("resolution", 0.0))) for col, s in spec.items()}
+
+    return Record(str(path), dict(meta), t, table, sig(meta["inputs"]), sig(meta["outputs"]))
+
+
+def write_record(path: str | Path, table: pd.DataFrame, meta: Mapping[str, Any]) -> Path:
+    """Write ``table`` (CSV, or Parquet by suffix) and its sidecar after checking them."""
+    path = Path(path)
+    problems = check_record(path, table=table, meta=meta)
+    if problems:
+        raise RecordError(str(path), problems)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix.lower() in (".parquet", ".pq"):
+        table.to_parquet(path)
+    else:
+        table.to_csv(path, index=False, float_format="%.12g")
+    sidecar_path(path).write_text(json.dumps(meta, indent=2) + "\n")
+    return path
