@@ -229,7 +229,10 @@ class ParameterSet:
         names = [f.name for f in dataclasses.fields(self)
                  if "symbol" in f.metadata or isinstance(getattr(self, f.name), ParameterSet)]
         if tuple_cls is None:
+            # defined as a module attribute so pickle (numba's on-disk cache) can find it again
             tuple_cls = namedtuple(f"{cls.__name__}Tuple", names)  # type: ignore[misc]
+            tuple_cls.__module__ = __name__
+            globals()[tuple_cls.__name__] = tuple_cls
             _TUPLE_TYPES[cls] = tuple_cls
         values = []
         for name in names:

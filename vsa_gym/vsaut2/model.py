@@ -225,7 +225,7 @@ class VsaUT2Model:
         if self.compiled and not self.extensions:
             # contiguous float64 inputs keep numba at one compiled signature
             dx, pw = _rhs_compiled(np.ascontiguousarray(x), np.ascontiguousarray(u, dtype=np.float64),
-                                   np.ascontiguousarray(np.broadcast_to(tau_ext, x.shape[:1]), dtype=np.float64),
+                                   np.array(np.broadcast_to(tau_ext, x.shape[:1]), dtype=np.float64),
                                    self._p_tuple, self._d)
             return (dx[0], pw[0]) if flat else (dx, pw)
         ports = np.zeros((x.shape[0], len(PORTS)))
@@ -424,18 +424,13 @@ def _rk4_compiled(
     x: np.ndarray, u: np.ndarray, tau: np.ndarray, p: VsaUT2Params, d: _Derived, dt: float, n_sub: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`vsa_gym.physics.integrate.rk4` over :func:`_rhs_core`, compiled (no extensions)."""
-    n = x.shape[0]
     h = dt / n_sub
-    ports = np.zeros((n, len(PORTS)))
-    k1, k2, k3, k4 = np.empty_like(x), np.empty_like(x), np.empty_like(x), np.empty_like(x)
-    p1, p2, p3, p4 = (np.empty((n, N_POWER)), np.empty((n, N_POWER)), np.empty((n, N_POWER)),
-                      np.empty((n, N_POWER)))
-    energy = np.zeros((n, N_POWER))
+    energy = np.zeros((x.shape[0], N_POWER))
     for _ in range(n_sub):
-        _rhs_core(x, u, tau, p, d, ports, k1, p1)
-        _rhs_core(x + 0.5 * h * k1, u, tau, p, d, ports, k2, p2)
-        _rhs_core(x + 0.5 * h * k2, u, tau, p, d, ports, k3, p3)
-        _rhs_core(x + h * k3, u, tau, p, d, ports, k4, p4)
+        k1, p1 = _rhs_compiled(x, u, tau, p, d)
+        k2, p2 = _rhs_compiled(x + 0.5 * h * k1, u, tau, p, d)
+        k3, p3 = _rhs_compiled(x + 0.5 * h * k2, u, tau, p, d)
+        k4, p4 = _rhs_compiled(x + h * k3, u, tau, p, d)
         x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
         energy += (h / 6.0) * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
     return x, energy
