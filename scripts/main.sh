@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Set up from scratch and run the main job: reproduce both papers, compute the vsaUT-II datasheet,
+# and identify the shipped EMPS record. Everything lands in out/.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+. scripts/setup.sh
+mkdir -p out
+vsa-gym reproduce all --out out/reproduce
+vsa-gym datasheet vsaut2 --json out/datasheet_vsaut2.json
+if vsa-gym identify --help >/dev/null 2>&1; then
+  vsa-gym identify emps --json out/identify_emps.json --out out/identify_emps
+fi
+echo "main job done: see out/"
