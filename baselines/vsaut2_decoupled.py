@@ -1,0 +1,183 @@
+"""Decoupled position / stiffness controller of the vsaUT-II (voltage mode) as a policy object.
+
+Position (frame motor): the output sits at ``r = q2 + phi``, so the frame is commanded to
+``q2_ref = r_ref - phi_c`` where ``phi_c`` is the measured deflection ``r_hat - q2_hat`` through a
+first-order low-pass (``deflection_filter_hz``): the static deflection under load is compensated
+without closing a fast loop through the spring.  A PID on the frame angle (derivative on the
+measured speed ``w2_hat``) drives the frame motor voltage.
+
+Stiffness (pivot motor): the stiffness reference ``K_ref`` is inverted in three steps:
+the belt in series (``K_s = K_ref K_b / (K_b - K_ref)``), eq. (6) at the current deflection
+(``K_s / cos(2 phi_c)`` at phi = 0, then :func:`vsa_gym.physics.lever.pivot_for_stiffness`) and
+eq. (5) (:func:`vsa_gym.physics.pivot.sun_angle_for`) to the pivot motor angle; a PID on the
+pivot motor angle (derivative on ``w1_hat``) drives the pivot motor voltage.
+
+Model feed-forward (both motors): ``u_ff = R i_ff + k_e w_ref`` with ``w_ref`` the motor speed of
+the (differentiated, filtered) reference and ``i_ff`` the current that balances the modelled load:
+on the frame the lever torque ``k l^2 rho^2 sin(2 phi_c)`` and the viscous friction ``c_ad``, on the
+pivot the lever's pivot force ``F_q1`` through the mechanism's Jacobian (eqs. 4-6), both divided by
+the gearbox ratio and its maximum efficiency.
+
+Anti-windup: the integrators are clamped and do not integrate while the voltage saturates in the
+direction of the error.  The controller uses only the observation (13 channels of
+``VsaUT2-PositionStiffness-v0``) and runs at the environment's ``control_dt`` (2 ms).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+
+import numpy as np
+
+from vsa_gym.physics.belt import belt_stiffness_at_frame
+from vsa_gym.physics.lever import pivot_for_stiffness
+from vsa_gym.physics.pivot import pivot_jacobian, sun_angle_for
+from vsa_gym.vsaut2.params import VsaUT2Params
+
+VSAUT2_PS_OBS = ("q1_hat", "q2_hat", "r_hat", "w1_hat", "w2_hat", "r_dot_hat", "i1", "i2", "log_K_hat", "r_ref",
+                 "log_K_ref", "r_err", "log_K_err")
+
+
+@dataclasses.dataclass(frozen=True)
+class VsaUT2DecoupledConfig:
+    """Gains of the decoupled controller (tuned on the nominal model, see benchmarks.baselines)."""
+
+    # frame PID: volts per rad of frame angle error, per rad s, per (rad/s of motor speed)
+    kp_frame: float = 400.0
+    ki_frame: float = 800.0
+    kd_frame: float = 0.02  # V per rad/s of frame *motor* speed (w2_hat)
+    # pivot PID: volts per rad of pivot motor angle error
+    kp_pivot: float = 0.6
+    ki_pivot: float = 0.5
+    kd_pivot: float = 0.002  # V per rad/s of pivot motor speed (w1_hat)
+    int_max: float = 6.0  # V, integrator clamps
+    deflection_filter_hz: float = 0.5  # low-pass of the deflection compensation (static load only)
+    deflection_comp_max: float = 0.3  # rad, clamp of the compensation
+    reference_filter_hz: float = 10.0  # low-pass on the stiffness reference before differentiation
+    shaping_fraction: float = 0.5  # position reference shaped at this fraction of the output mode sqrt(K/I_o)
+    output_damping: float = 0.5  # damping ratio injected through the frame (q2_ref -= 2 zeta sqrt(I_o/K) r_dot)
+    feedforward: bool = True
+    dt: float = 2e-3
+
+
+class VsaUT2Decoupled:
+    """``reset()``, then ``policy(obs) -> [pivot, frame]`` voltage commands in ``[-1, 1]`` (module docstring)."""
+
+    def __init__(self, config: VsaUT2DecoupledConfig | None = None, params: VsaUT2Params | None = None,
+                 obs_names: Sequence[str] = VSAUT2_PS_OBS) -> None:
+        self.config = VsaUT2DecoupledConfig() if config is None else config
+        self.p = VsaUT2Params() if params is None else params
+        self.idx = {name: k for k, name in enumerate(obs_names)}
+        p = self.p
+        self.K_b = float(belt_stiffness_at_frame(p.belt))
+        self.q1_lo, self.q1_hi = 1.5 * float(p.lever.q1_min), float(p.q1_max)
+        self.n1, self.ratio = float(p.pivot_gearbox.n), float(p.frame_ratio)
+        self.m1, self.m2 = p.pivot_motor, p.frame_motor
+        self.u1_max, self.u2_max = float(p.pivot_motor.U_max), float(p.frame_motor.U_max)
+        self.reset()
+
+    def reset(self) -> None:
+        self.n: int | None = None
+        self.last: dict[str, np.ndarray] = {}
+
+    def _init(self, o: np.ndarray) -> None:
+        n = o.shape[0]
+        self.n = n
+        self.phi_c = o[:, self.idx["r_hat"]] - o[:, self.idx["q2_hat"]]
+        self.int1, self.int2 = np.zeros(n), np.zeros(n)
+        self.q2_ref_f = None
+        self.th1_ref_f = None
+
+    def _lp(self, f_hz: float) -> float:
+        return 1.0 - np.exp(-2.0 * np.pi * f_hz * self.config.dt)
+
+    def pivot_angle_for(self, K: np.ndarray, phi: np.ndarray) -> np.ndarray:
+        """Inverse of eqs. (5)-(6) with the belt in series: pivot motor angle (rad) giving output stiffness K."""
+        K = np.minimum(K, 0.95 * self.K_b)
+        K_s = K * self.K_b / (self.K_b - K)
+        K_s = K_s / np.maximum(np.cos(2.0 * phi), 0.3)
+        q1 = np.clip(pivot_for_stiffness(self.p.lever, K_s), self.q1_lo, self.q1_hi)
+        return self.n1 * sun_angle_for(self.p.pivot, q1)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        cfg, p = self.config, self.p
+        o = np.atleast_2d(np.asarray(obs, dtype=np.float64))
+        single = np.ndim(obs) == 1
+        if self.n != o.shape[0]:
+            self._init(o)
+        g = self.idx
+        q1, q2, r = o[:, g["q1_hat"]], o[:, g["q2_hat"]], o[:, g["r_hat"]]
+        w1, w2 = o[:, g["w1_hat"]], o[:, g["w2_hat"]]
+        r_ref, K_ref = o[:, g["r_ref"]], np.exp(o[:, g["log_K_ref"]])
+        dt = cfg.dt
+        phi = r - q2
+        self.phi_c = self.phi_c + self._lp(cfg.deflection_filter_hz) * (phi - self.phi_c)
+        K_hat = np.exp(o[:, g["log_K_hat"]])
+
+        # position: critically damped 2nd-order shaping below the output mode, then deflection
+        # compensation and damping injection through the frame
+        w_n = np.sqrt(np.maximum(K_hat, 0.5) / p.I_o)
+        w_s = cfg.shaping_fraction * w_n
+        if self.q2_ref_f is None:
+            self.r_s, self.r_sd = r_ref.copy(), np.zeros_like(r_ref)
+            self.th1_ref_f = self.pivot_angle_for(K_ref, self.phi_c)
+            self.q2_ref_f = q2.copy()
+        acc = w_s**2 * (r_ref - self.r_s) - 2.0 * w_s * self.r_sd
+        self.r_sd = self.r_sd + acc * dt
+        self.r_s = self.r_s + self.r_sd * dt
+        comp = np.clip(self.phi_c, -cfg.deflection_comp_max, cfg.deflection_comp_max)
+        # moving the frame against the output's speed makes the spring torque oppose that speed
+        damp = -2.0 * cfg.output_damping * np.sqrt(p.I_o / np.maximum(K_hat, 0.5)) * o[:, g["r_dot_hat"]]
+        q2_ref = np.clip(self.r_s - comp + damp, -0.95 * p.q2_max, 0.95 * p.q2_max)
+        w2_ref = self.ratio * self.r_sd
+        self.q2_ref_f = q2_ref
+
+        # stiffness: inverse of eqs. (5)-(6), low-passed so that its derivative (feed-forward speed) is bounded
+        th1_ref = self.pivot_angle_for(K_ref, self.phi_c)
+        th1_prev = self.th1_ref_f.copy()
+        self.th1_ref_f = self.th1_ref_f + self._lp(cfg.reference_filter_hz) * (th1_ref - self.th1_ref_f)
+        w1_ref = (self.th1_ref_f - th1_prev) / dt
+
+        # measured pivot motor angle from q1_hat (eq. 5 inverted)
+        th1 = self.n1 * sun_angle_for(p.pivot, np.clip(q1, 0.0, 2.0 * p.pivot.D_p))
+
+        # feed-forward
+        u1_ff = np.zeros_like(q1)
+        u2_ff = np.zeros_like(q1)
+        if cfg.feedforward:
+            lv = p.lever
+            qc = np.maximum(q1, lv.q1_min)
+            rho = (lv.l - qc) / qc
+            tau_frame = lv.k * lv.l**2 * rho**2 * np.sin(2.0 * self.phi_c) + p.c_ad * w2_ref / self.ratio
+            i2 = tau_frame / (self.ratio * self.m2.k_t * p.frame_gearbox.eta_max)
+            u2_ff = self.m2.R * i2 + self.m2.k_e * w2_ref
+            F_q1 = 2.0 * lv.k * lv.l**3 * (lv.l - qc) * np.sin(self.phi_c) ** 2 / qc**3
+            tau_sun = -F_q1 * pivot_jacobian(p.pivot, th1 / self.n1)
+            i1 = tau_sun / (self.n1 * self.m1.k_t * p.pivot_gearbox.eta_max)
+            u1_ff = self.m1.R * i1 + self.m1.k_e * w1_ref
+
+        e2 = self.q2_ref_f - q2
+        e1 = self.th1_ref_f - th1
+        u2 = cfg.kp_frame * e2 + self.int2 - cfg.kd_frame * (w2 - w2_ref) + u2_ff
+        u1 = cfg.kp_pivot * e1 + self.int1 - cfg.kd_pivot * (w1 - w1_ref) + u1_ff
+        # conditional integration (anti-windup): freeze where saturated in the error's direction
+        sat2 = (np.abs(u2) >= self.u2_max) & (np.sign(u2) == np.sign(e2))
+        sat1 = (np.abs(u1) >= self.u1_max) & (np.sign(u1) == np.sign(e1))
+        self.int2 = np.clip(self.int2 + np.where(sat2, 0.0, cfg.ki_frame * e2 * dt), -cfg.int_max, cfg.int_max)
+        self.int1 = np.clip(self.int1 + np.where(sat1, 0.0, cfg.ki_pivot * e1 * dt), -cfg.int_max, cfg.int_max)
+        act = np.stack([np.clip(u1 / self.u1_max, -1, 1), np.clip(u2 / self.u2_max, -1, 1)], axis=1)
+        self.last = {"q2_ref": self.q2_ref_f.copy(), "th1_ref": self.th1_ref_f.copy(), "int_pivot": self.int1.copy(),
+                     "int_frame": self.int2.copy(), "u_pivot": u1, "u_frame": u2}
+        return (act[0] if single else act).astype(np.float32)
+
+
+def vsaut2_decoupled_factory(config: VsaUT2DecoupledConfig | None = None):  # noqa: ANN201
+    """``policy_factory(env)`` for :func:`baselines.metrics.evaluate_policy`."""
+
+    def make(env) -> VsaUT2Decoupled:  # noqa: ANN001
+        task = env.unwrapped.task
+        cfg = dataclasses.replace(config or VsaUT2DecoupledConfig(), dt=float(task.control_dt))
+        return VsaUT2Decoupled(cfg, task.base_rows[0], [c.name for c in task.obs_channels])
+
+    return make
