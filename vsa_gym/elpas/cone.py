@@ -32,6 +32,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.elpas.params import ConeGeometry
 
@@ -48,6 +49,7 @@ class SpringState(NamedTuple):
     T_gamma: np.ndarray  # spring moment on the arm (N m)
 
 
+@register_jitable
 def rest_length(c: ConeGeometry) -> np.ndarray | float:
     """Cone length ``L0 = sqrt(h^2 + r^2)`` (m) at which the spring force is ``F_s0``."""
     return np.sqrt(c.h**2 + c.r**2)
@@ -71,6 +73,7 @@ def check_angles(c: ConeGeometry, gamma: np.ndarray | float | None = None,
             )
 
 
+@register_jitable
 def spring_unchecked(c: ConeGeometry, gamma: np.ndarray, alpha: np.ndarray) -> SpringState:
     """All spring quantities without range checks (used in the right-hand side)."""
     sg, cg = np.sin(gamma), np.cos(gamma)

@@ -23,6 +23,10 @@ the RK4 stages.  With ``omega`` frozen this is the exact exponential update
 correction for the variation of ``omega`` within the substep.  It is stable for
 any ``lambda h`` and is checked against a Radau reference in the device tests.
 
+The pointwise functions are ``register_jitable``: they run as plain numpy and
+inside numba-compiled device cores alike (parameters then come as the named
+tuples of :meth:`~vsa_gym.physics.parameters.ParameterSet.as_tuple`).
+
 Shapes: parameters are floats or ``(n,)`` arrays; ``omega`` and ``z`` are
 ``(n,)`` arrays (or anything broadcastable to them).
 """
@@ -33,6 +37,7 @@ import dataclasses
 from collections.abc import Callable, Sequence
 
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.physics.parameters import ParameterSet, param
 
@@ -73,21 +78,25 @@ class CoulombViscousParams(ParameterSet):
                              doc="velocity scale of the tanh regularisation of sign(omega)")
 
 
+@register_jitable
 def stribeck(p: LuGreParams, omega: np.ndarray) -> np.ndarray:
     """``g(omega) = F_c + (F_s - F_c) exp(-(omega/omega_s)^2)`` in N m, shape of ``omega``."""
     return p.F_c + (p.F_s - p.F_c) * np.exp(-((omega / p.omega_s) ** 2))
 
 
+@register_jitable
 def bristle_rate(p: LuGreParams, omega: np.ndarray) -> np.ndarray:
     """Rate of the linear bristle dynamics ``lambda = |omega| s0 / g(omega)`` in 1/s."""
     return np.abs(omega) * p.s0 / stribeck(p, omega)
 
 
+@register_jitable
 def bristle_derivative(p: LuGreParams, omega: np.ndarray, z: np.ndarray) -> np.ndarray:
     """``dz/dt = omega - |omega| z / beta`` (eq. 6) in rad/s."""
     return omega - bristle_rate(p, omega) * z
 
 
+@register_jitable
 def lugre_moment(p: LuGreParams, omega: np.ndarray, z: np.ndarray, zdot: np.ndarray) -> np.ndarray:
     """``M_fric = s0 z + s1 dz/dt + s2 omega`` (eq. 5) in N m, opposing ``omega``."""
     return p.s0 * z + p.s1 * zdot + p.s2 * omega
@@ -109,6 +118,7 @@ def coulomb_viscous_moment(p: CoulombViscousParams, omega: np.ndarray) -> np.nda
     return p.F_c * np.tanh(omega / p.omega_eps) + p.b * omega
 
 
+@register_jitable
 def phi_functions(zeta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``exp(zeta)`` and ``phi_k(zeta) = (exp(zeta) - sum_{j<k} zeta^j / j!) / zeta^k`` for k = 1, 2, 3.
 
