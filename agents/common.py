@@ -1,0 +1,302 @@
+"""Shared pieces of the agents: algorithms, rl-zoo3 hyperparameter files, environments and the run layout.
+
+Run layout (rl-zoo3's, so that ``rl_zoo3.enjoy`` and our tools read each other's runs)::
+
+    LOG_FOLDER/ALGO/ENV_NAME_RUNID/              "save path"; ENV_NAME is the id with "/" -> "-"
+        ENV_NAME.zip                             final model
+        ENV_NAME/vecnormalize.pkl                final VecNormalize statistics
+        ENV_NAME/config.yml, args.yml, command.txt
+        rl_model_N_steps.zip                     checkpoints (N = timesteps), with
+        rl_model_vecnormalize_N_steps.pkl        their VecNormalize statistics and
+        rl_model_replay_buffer_N_steps.pkl       replay buffer (off-policy algorithms)
+        best_model.zip, best_model_vecnormalize.pkl, evaluations.npz   periodic evaluation
+        0.monitor.csv                            training episodes
+        tb/                                      TensorBoard logs
+        train_info.json                          timesteps, CPU and wall seconds per segment (ours)
+
+Seeds: a run with ``--seed S`` seeds the model and the training rows with ``S, S+1, ...``;
+periodic evaluation uses the held-out seeds ``EVAL_SEED_BASE + k`` (the same at every
+evaluation), final metrics ``METRIC_SEED_BASE + k``.  Training never resets with these.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+ALGO_NAMES: tuple[str, ...] = ("ppo", "sac", "td3", "tqc")
+OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "tqc"})
+HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
+EVAL_SEED_BASE = 1_000_000
+METRIC_SEED_BASE = 2_000_000
+_CHECKPOINT_RE = re.compile(r"^rl_model_(\d+)_steps\.zip$")
+
+
+def algo_class(algo: str) -> Any:
+    """The SB3 / sb3-contrib class of ``algo``."""
+    algo = algo.lower()
+    if algo == "ppo":
+        from stable_baselines3 import PPO
+
+        return PPO
+    if algo == "sac":
+        from stable_baselines3 import SAC
+
+        return SAC
+    if algo == "td3":
+        from stable_baselines3 import TD3
+
+        return TD3
+    if algo == "tqc":
+        try:
+            from sb3_contrib import TQC
+        except ImportError as exc:  # pragma: no cover - depends on the install
+            raise ImportError("algo 'tqc' needs sb3-contrib (pip install -e '.[rl]')") from exc
+        return TQC
+    raise ValueError(f"unknown algo {algo!r}; choose one of {', '.join(ALGO_NAMES)}")
+
+
+def env_name(env_id: str) -> str:
+    """rl-zoo3's file-system name of an id (``huggingface_sb3.EnvironmentName``): "/" -> "-"."""
+    return env_id.replace("/", "-")
+
+
+# ---------------------------------------------------------------------------------------------- hyperparameters
+class LinearSchedule:
+    """rl-zoo3's ``lin_<value>`` schedule: ``value * progress_remaining`` (picklable)."""
+
+    def __init__(self, initial: float) -> None:
+        self.initial = float(initial)
+
+    def __call__(self, progress_remaining: float) -> float:
+        return progress_remaining * self.initial
+
+    def __repr__(self) -> str:
+        return f"LinearSchedule({self.initial})"
+
+
+def hyperparams_file(algo: str, path: str | os.PathLike[str] | None = None) -> Path:
+    """``path`` or ``agents/hyperparams/<algo>.yml``."""
+    return Path(path) if path is not None else HYPERPARAMS_DIR / f"{algo.lower()}.yml"
+
+
+def read_hyperparams(algo: str, env_id: str, path: str | os.PathLike[str] | None = None,
+                     overrides: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The raw (YAML) hyperparameters of ``env_id`` in the rl-zoo3 file of ``algo`` (or ``path``).
+
+    Like rl-zoo3, the key is the full id; a ``default`` entry is used when the id is absent.
+    """
+    f = hyperparams_file(algo, path)
+    with open(f) as fh:
+        table = yaml.safe_load(fh)
+    if not isinstance(table, dict):
+        raise ValueError(f"{f}: expected a mapping from env ids to hyperparameters")
+    if env_id in table:
+        hp = dict(table[env_id])
+    elif "default" in table:
+        hp = dict(table["default"])
+    else:
+        raise ValueError(f"hyperparameters for {algo}-{env_id} not found in {f}")
+    if overrides:
+        hp.update(overrides)
+    if "n_timesteps" not in hp:
+        raise ValueError(f"{f}: {env_id} has no n_timesteps (required by rl-zoo3)")
+    return hp
+
+
+_UNSUPPORTED = ("env_wrapper", "vec_env_wrapper", "callback", "frame_stack", "monitor_kwargs")
+
+
+def _py(expr: str) -> Any:
+    """Evaluate an rl-zoo3 Python-expression string (``"dict(net_arch=[64, 64])"``) with ``nn`` in scope."""
+    from torch import nn
+
+    return eval(expr, {"__builtins__": {}, "dict": dict, "list": list, "tuple": tuple, "nn": nn,
+                       "float": float, "int": int, "True": True, "False": False, "None": None})
+
+
+def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any]:
+    """rl-zoo3's pre-processing of a hyperparameter entry, split into what our trainer needs.
+
+    Returns ``{"model": kwargs of the algorithm, "n_envs", "n_timesteps", "normalize" (None or
+    VecNormalize kwargs), "env_kwargs"}``.  Keys that rl-zoo3 supports but we do not (wrappers,
+    callbacks, frame stacking) raise ``ValueError``.
+    """
+    hp = dict(raw)
+    bad = [k for k in _UNSUPPORTED if k in hp]
+    if bad:
+        raise ValueError(f"hyperparameter keys {bad} are not supported by agents.train")
+    out: dict[str, Any] = {"n_envs": int(hp.pop("n_envs", 1)), "n_timesteps": int(float(hp.pop("n_timesteps")))}
+    for key in ("learning_rate", "clip_range", "clip_range_vf"):
+        v = hp.get(key)
+        if isinstance(v, str):
+            kind, value = v.split("_")
+            if kind != "lin":
+                raise ValueError(f"{key}: unknown schedule {v!r} (rl-zoo3 knows 'lin_<value>')")
+            hp[key] = LinearSchedule(float(value))
+    if isinstance(hp.get("train_freq"), list):
+        hp["train_freq"] = tuple(hp["train_freq"])
+    norm = hp.pop("normalize", False)
+    if isinstance(norm, str):
+        norm = _py(norm)
+    if norm is True:
+        norm = {}
+    if isinstance(norm, dict):
+        norm = dict(norm)
+        if "gamma" in hp:  # rl-zoo3: the return normalisation uses the algorithm's discount
+            norm["gamma"] = hp["gamma"]
+    out["normalize"] = norm if isinstance(norm, dict) else None
+    for key in ("policy_kwargs", "replay_buffer_kwargs"):
+        if isinstance(hp.get(key), str):
+            hp[key] = _py(hp[key])
+    env_kwargs = hp.pop("env_kwargs", None) or {}
+    if isinstance(env_kwargs, str):
+        env_kwargs = _py(env_kwargs)
+    out["env_kwargs"] = dict(env_kwargs)
+    noise_type = hp.pop("noise_type", None)
+    noise_std = hp.pop("noise_std", None)
+    if noise_type is not None:
+        from stable_baselines3.common.noise import NormalActionNoise, OrnsteinUhlenbeckActionNoise
+
+        sigma = float(noise_std) * np.ones(n_actions)
+        if "normal" in noise_type:
+            hp["action_noise"] = NormalActionNoise(mean=np.zeros(n_actions), sigma=sigma)
+        elif "ornstein-uhlenbeck" in noise_type:
+            hp["action_noise"] = OrnsteinUhlenbeckActionNoise(mean=np.zeros(n_actions), sigma=sigma)
+        else:
+            raise ValueError(f"unknown noise_type {noise_type!r}")
+    out["model"] = hp
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- environments
+def make_train_env(env_id: str, n_envs: int, seed: int, env_kwargs: Mapping[str, Any] | None = None,
+                   normalize: Mapping[str, Any] | None = None, monitor_file: str | None = None,
+                   vecnormalize_path: str | os.PathLike[str] | None = None, training: bool = True) -> Any:
+    """Native batched vector env -> SB3 ``VecEnv`` -> ``VecMonitor`` -> ``VecNormalize``.
+
+    ``vecnormalize_path`` loads saved statistics (resume / evaluation); ``training=False``
+    freezes them and switches reward normalisation off (evaluation environments).
+    """
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+
+    import vsa_gym.envs  # noqa: F401  (registers the ids)
+    from vsa_gym.envs.sb3 import make_sb3_vec_env
+
+    venv: Any = make_sb3_vec_env(env_id, n_envs=n_envs, seed=seed, **dict(env_kwargs or {}))
+    venv = VecMonitor(venv, filename=monitor_file)
+    if vecnormalize_path is not None:
+        venv = VecNormalize.load(str(vecnormalize_path), venv)
+    elif normalize is not None:
+        venv = VecNormalize(venv, **dict(normalize))
+    if isinstance(venv, VecNormalize) and not training:
+        venv.training = False
+        venv.norm_reward = False
+    return venv
+
+
+# ---------------------------------------------------------------------------------------------- run layout
+def run_dirs(log_folder: str | os.PathLike[str], algo: str, env_id: str) -> list[Path]:
+    """Existing run directories ``LOG/ALGO/ENV_NAME_<id>`` sorted by run id."""
+    base = Path(log_folder) / algo
+    pat = re.compile(rf"^{re.escape(env_name(env_id))}_(\d+)$")
+    found = [(int(m.group(1)), p) for p in base.glob(f"{env_name(env_id)}_*") if (m := pat.match(p.name))]
+    return [p for _, p in sorted(found)]
+
+
+def new_run_dir(log_folder: str | os.PathLike[str], algo: str, env_id: str) -> Path:
+    """Create and return the next run directory (rl-zoo3's ``get_latest_run_id + 1``).
+
+    The directory is claimed with an exclusive ``mkdir``, so concurrent trials of a sweep that
+    share the log folder never get the same one.
+    """
+    (Path(log_folder) / algo).mkdir(parents=True, exist_ok=True)
+    while True:
+        existing = run_dirs(log_folder, algo, env_id)
+        last = int(existing[-1].name.rsplit("_", 1)[1]) if existing else 0
+        d = Path(log_folder) / algo / f"{env_name(env_id)}_{last + 1}"
+        try:
+            d.mkdir()
+            return d
+        except FileExistsError:
+            continue
+
+
+def checkpoints(save_path: str | os.PathLike[str], off_policy: bool, normalized: bool) -> list[tuple[int, Path]]:
+    """Complete checkpoints ``(timesteps, zip)`` in ``save_path``, oldest first.
+
+    A checkpoint is complete when its model, and where used its VecNormalize statistics and
+    replay buffer, are all there (a run killed while saving leaves an incomplete one, skipped).
+    """
+    out = []
+    for p in Path(save_path).glob("rl_model_*_steps.zip"):
+        m = _CHECKPOINT_RE.match(p.name)
+        if not m:
+            continue
+        n = int(m.group(1))
+        if normalized and not (p.parent / f"rl_model_vecnormalize_{n}_steps.pkl").exists():
+            continue
+        if off_policy and not (p.parent / f"rl_model_replay_buffer_{n}_steps.pkl").exists():
+            continue
+        out.append((n, p))
+    return sorted(out)
+
+
+def vecnormalize_for(model_path: str | os.PathLike[str]) -> Path | None:
+    """The VecNormalize statistics that belong to a model file of the layout (``None`` if there are none)."""
+    p = Path(model_path)
+    m = _CHECKPOINT_RE.match(p.name)
+    if m:
+        cand = p.parent / f"rl_model_vecnormalize_{m.group(1)}_steps.pkl"
+    elif p.name == "best_model.zip":
+        cand = p.parent / "best_model_vecnormalize.pkl"
+    else:
+        cand = p.parent / p.stem / "vecnormalize.pkl"
+    return cand if cand.exists() else None
+
+
+def algo_of_model(model_path: str | os.PathLike[str]) -> str:
+    """Which algorithm saved a model .zip: the run layout (``.../ALGO/ENV_ID/x.zip``), else the zip's contents."""
+    p = Path(model_path)
+    if p.parent.parent.name in ALGO_NAMES:
+        return p.parent.parent.name
+    with zipfile.ZipFile(p) as zf:
+        data = json.loads(zf.read("data").decode())
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    for algo in ALGO_NAMES:
+        if f".{algo}." in f".{module}.":
+            return algo
+    if module.endswith("common.policies") and "clip_range" in data:  # PPO's ActorCriticPolicy
+        return "ppo"
+    raise ValueError(f"cannot tell the algorithm of {model_path} (policy module {module!r}); pass --algo")
+
+
+def read_json(path: str | os.PathLike[str], default: Any = None) -> Any:
+    p = Path(path)
+    return json.loads(p.read_text()) if p.exists() else default
+
+
+def write_json(path: str | os.PathLike[str], obj: Any) -> None:
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = p.with_suffix(p.suffix + ".tmp")
+    tmp.write_text(json.dumps(obj, indent=2, sort_keys=True, default=_json_default))
+    os.replace(tmp, p)
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, Path):
+        return str(o)
+    return repr(o)

@@ -1,0 +1,130 @@
+"""Evaluate a trained agent with the baselines' metrics (:func:`baselines.metrics.evaluate_policy`).
+
+::
+
+    python -m agents.evaluate logs/ppo/vsa_gym-ELPAS-ForceTracking-v0_1/vsa_gym-ELPAS-ForceTracking-v0.zip \\
+        --env vsa_gym/ELPAS-ForceTracking-v0 --episodes 10 --json out/ppo_force.json
+
+The model's algorithm is read from the .zip (``--algo`` overrides) and its VecNormalize statistics
+are found by the run layout (:func:`agents.common.vecnormalize_for`; ``--vecnormalize`` overrides).
+The policy is deterministic.  Episodes use the seeds ``--seed-base + k`` (default
+``METRIC_SEED_BASE``, never used in training) and the environment arguments the agent was trained
+with (its ``config.yml``), so a learned policy and a baseline are measured by the same rules on the
+same episodes.  The JSON holds the metrics dict of ``evaluate_policy`` plus a ``"agent"`` entry.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from agents.common import METRIC_SEED_BASE, algo_class, algo_of_model, env_name, vecnormalize_for, write_json
+
+
+class SB3Policy:
+    """A trained SB3 model as a baselines policy: ``reset()``, ``policy(obs) -> action`` (batched or single).
+
+    Observations are normalised with the frozen training statistics (``obs_rms``, ``clip_obs``,
+    ``epsilon`` of the saved ``VecNormalize``) exactly as ``VecNormalize.normalize_obs`` does.
+    """
+
+    def __init__(self, model: Any, vecnormalize: Any | None = None, deterministic: bool = True) -> None:
+        self.model = model
+        self.vecnormalize = vecnormalize
+        self.deterministic = deterministic
+
+    def reset(self) -> None:
+        """Stateless (MLP policies); present for the baselines' policy protocol."""
+
+    def normalize(self, obs: np.ndarray) -> np.ndarray:
+        vn = self.vecnormalize
+        if vn is None or not vn.norm_obs:
+            return obs
+        return vn.normalize_obs(obs)
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        o = np.asarray(obs, dtype=np.float32)
+        single = o.ndim == 1
+        o2 = np.atleast_2d(o)
+        action, _ = self.model.predict(self.normalize(o2), deterministic=self.deterministic)
+        action = np.asarray(action, dtype=np.float32)
+        return action[0] if single else action
+
+
+def load_agent(model_path: str | os.PathLike[str], algo: str | None = None,
+               vecnormalize: str | os.PathLike[str] | None = None) -> SB3Policy:
+    """Load a model .zip of the run layout with its VecNormalize statistics as an :class:`SB3Policy`."""
+    import pickle
+
+    model_path = Path(model_path)
+    algo = algo or algo_of_model(model_path)
+    model = algo_class(algo).load(str(model_path), device="cpu")
+    vn_path = Path(vecnormalize) if vecnormalize is not None else vecnormalize_for(model_path)
+    vn = None
+    if vn_path is not None:
+        with open(vn_path, "rb") as fh:
+            vn = pickle.load(fh)
+        vn.training = False
+    return SB3Policy(model, vn)
+
+
+def training_env_kwargs(model_path: str | os.PathLike[str], env_id: str) -> dict[str, Any]:
+    """``env_kwargs`` of the run's ``config.yml`` (empty when the model is not in a run directory)."""
+    from agents.common import _py
+
+    p = Path(model_path)
+    for cand in (p.parent / env_name(env_id) / "config.yml", p.parent / p.stem / "config.yml"):
+        if cand.exists():
+            kw = (yaml.safe_load(cand.read_text()) or {}).get("env_kwargs") or {}
+            return dict(_py(kw) if isinstance(kw, str) else kw)
+    return {}
+
+
+def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: int = 10,
+                   seed_base: int = METRIC_SEED_BASE, algo: str | None = None,
+                   vecnormalize: str | os.PathLike[str] | None = None, episode_steps: int | None = None,
+                   env_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The baselines' metrics of a trained agent on ``episodes`` held-out seeds."""
+    from baselines.metrics import evaluate_policy
+
+    policy = load_agent(model_path, algo, vecnormalize)
+    kw = training_env_kwargs(model_path, env_id)
+    kw.update(env_kwargs or {})
+    kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
+    seeds = [seed_base + k for k in range(int(episodes))]
+    result = evaluate_policy(env_id, lambda env: policy, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
+    result = dict(result)
+    result["agent"] = {"model": str(model_path), "algo": algo or algo_of_model(model_path),
+                       "vecnormalize": str(vecnormalize or vecnormalize_for(model_path)), "seeds": seeds,
+                       "env_kwargs": kw}
+    return result
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m agents.evaluate", description=__doc__.split("\n\n")[0])
+    ap.add_argument("model", help="model .zip (final, checkpoint or best_model)")
+    ap.add_argument("--env", required=True)
+    ap.add_argument("--episodes", type=int, default=10)
+    ap.add_argument("--json", default=None, help="write the metrics here")
+    ap.add_argument("--seed-base", type=int, default=METRIC_SEED_BASE)
+    ap.add_argument("--algo", default=None)
+    ap.add_argument("--vecnormalize", default=None)
+    ap.add_argument("--episode-steps", type=int, default=None, help="shorter episodes (default: the time limit)")
+    a = ap.parse_args(argv)
+    res = evaluate_agent(a.model, a.env, a.episodes, a.seed_base, a.algo, a.vecnormalize, a.episode_steps)
+    if a.json:
+        write_json(a.json, res)
+    print(yaml.safe_dump({k: v for k, v in res.items() if not isinstance(v, list | dict)}, sort_keys=False)
+          or str(res))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
