@@ -97,7 +97,7 @@ def friction_experiments(p: ElpasParams, period: float = SWEEP_PERIOD, dt: float
     }
 
 
-def vehicle_demo(p: ElpasParams, road_class: str = "C", speed: float = 20.0, duration: float = 4.0,
+def vehicle_demo(p: ElpasParams, road_class: str = "C", speed: float = 20.0, duration: float = 3.0,
                  seed: int = 0) -> dict[str, float]:
     """Quarter car on an ISO 8608 road with the motor shorted (u = 0): the passive eLPAS corner.
 
