@@ -1,0 +1,233 @@
+"""Learned agents against the baselines, on the same held-out episodes, with the same metrics.
+
+::
+
+    python -m benchmarks.rl_vs_baselines --timesteps 100000 --seeds 0 1 2 --episodes 8
+
+For each environment: trains (or loads, when a finished run of the same env/algo/seed/timesteps
+is in ``--log-folder``) one agent per seed through :mod:`agents.sweep` (Ray), evaluates every
+agent and every baseline with :func:`baselines.metrics.evaluate_policy` on the seeds
+``METRIC_SEED_BASE + k`` (k < ``--episodes``, never used in training), and writes
+
+* ``docs/agents_results.json`` -- every number (per agent seed, per baseline episode);
+* the table between the ``rl_vs_baselines`` markers in ``docs/agents.md``: mean and 95 %
+  interval of the tracking metric, electrical energy, comfort (quarter car) and violations;
+  for agents the interval is over the training seeds (Student t on the per-seed means over the
+  episodes), for the deterministic baselines over the episodes; plus the CPU minutes of training;
+* ``docs/img/pareto_<env>.png`` -- tracking metric against electrical energy (lower-left is better).
+
+Baselines (from :mod:`baselines`): the paper's cascade (force tracking), passive hold and
+skyhook through the cascade (quarter car), the decoupled controller (vsaUT-II position /
+stiffness) and, everywhere, the zero action.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import threading
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.common import METRIC_SEED_BASE, read_json, write_json
+
+REPO = Path(__file__).resolve().parents[1]
+ENVS = ("vsa_gym/ELPAS-ForceTracking-v0", "vsa_gym/ELPAS-QuarterCar-v0", "vsa_gym/VsaUT2-PositionStiffness-v0",
+        "vsa_gym/VsaUT2-Throw-v0")
+MARK_BEGIN = "<!-- rl_vs_baselines:begin -->"
+MARK_END = "<!-- rl_vs_baselines:end -->"
+# columns of the table: (metric key, header, format)
+COLUMNS: dict[str, list[tuple[str, str, str]]] = {
+    "vsa_gym/ELPAS-ForceTracking-v0": [("force_rms_N", "force RMS (N)", "{:.1f}")],
+    "vsa_gym/ELPAS-QuarterCar-v0": [("comfort_aw_rms", "comfort a_w RMS (m/s²)", "{:.3f}"),
+                                    ("tyre_load_rms", "tyre load RMS (-)", "{:.3f}")],
+    "vsa_gym/VsaUT2-PositionStiffness-v0": [("position_rms_rad", "position RMS (rad)", "{:.4f}"),
+                                            ("log_stiffness_rms", "ln K RMS (-)", "{:.3f}")],
+    "vsa_gym/VsaUT2-Throw-v0": [],
+}
+COMMON = [("energy_J", "energy (J)", "{:.2f}"), ("peak_power_W", "peak power (W)", "{:.0f}"),
+          ("violations", "violations / episode", "{:.2f}"), ("return", "return", "{:.1f}")]
+
+
+def baseline_factories(env_id: str) -> dict[str, tuple[Callable[[Any], Any], dict[str, Any]]]:
+    """``name -> (policy_factory, env_kwargs)`` of the baselines of ``env_id``."""
+    from baselines.metrics import zero_policy_factory
+
+    out: dict[str, tuple[Callable[[Any], Any], dict[str, Any]]] = {"zero action": (zero_policy_factory, {})}
+    if env_id == "vsa_gym/ELPAS-ForceTracking-v0":
+        from baselines.elpas_cascade import elpas_cascade_factory
+
+        out["cascade (paper)"] = (elpas_cascade_factory(), {"control_mode": "current"})
+    elif env_id == "vsa_gym/ELPAS-QuarterCar-v0":
+        from baselines.quarter_car import passive_factory, skyhook_factory
+
+        out["passive hold"] = (passive_factory(), {"control_mode": "current"})
+        out["skyhook cascade"] = (skyhook_factory(), {"control_mode": "current"})
+    elif env_id == "vsa_gym/VsaUT2-PositionStiffness-v0":
+        from baselines.vsaut2_decoupled import vsaut2_decoupled_factory
+
+        out["decoupled"] = (vsaut2_decoupled_factory(), {})
+    return out
+
+
+def evaluate_baselines(env_id: str, episodes: int, cache: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
+    """Per-episode metrics of every baseline (one ``evaluate_policy`` call per seed, cached by seed)."""
+    from baselines.metrics import evaluate_policy
+
+    out: dict[str, list[dict[str, Any]]] = {}
+    for name, (factory, kw) in baseline_factories(env_id).items():
+        rows = []
+        for k in range(episodes):
+            seed = METRIC_SEED_BASE + k
+            key = f"{env_id}|{name}|{seed}"
+            if key not in cache:
+                cache[key] = evaluate_policy(env_id, factory, [seed], env_kwargs=kw or None)
+            rows.append(cache[key])
+        out[name] = rows
+    return out
+
+
+def interval(values: Sequence[float]) -> tuple[float, float, float]:
+    """Mean and two-sided 95 % Student-t interval of the mean (degenerate for one value)."""
+    from scipy import stats
+
+    v = np.asarray(values, dtype=np.float64)
+    m = float(v.mean())
+    if v.size < 2:
+        return m, m, m
+    h = float(stats.t.ppf(0.975, v.size - 1) * v.std(ddof=1) / np.sqrt(v.size))
+    return m, m - h, m + h
+
+
+def _cell(values: Sequence[float], fmt: str) -> str:
+    m, lo, hi = interval(values)
+    if lo == hi:
+        return fmt.format(m)
+    return f"{fmt.format(m)} [{fmt.format(lo)}, {fmt.format(hi)}]"
+
+
+def table(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict[str, list[dict[str, Any]]]) -> str:
+    """Markdown table of one environment (agents: per-seed rows with ``cpu_min``; baselines: per episode)."""
+    cols = COLUMNS[env_id] + COMMON
+    head = "| policy | n | " + " | ".join(h for _, h, _ in cols) + " | CPU min (train) |"
+    lines = [head, "|" + "---|" * (len(cols) + 3)]
+    for name, rows in base.items():
+        cells = [_cell([r[k] for r in rows], f) for k, _, f in cols]
+        lines.append(f"| {name} | {len(rows)} ep. | " + " | ".join(cells) + " | - |")
+    for name, rows in agents.items():
+        cells = [_cell([r["metrics"][k] for r in rows], f) for k, _, f in cols]
+        cpu = _cell([r["cpu_min"] for r in rows], "{:.1f}")
+        lines.append(f"| **{name}** | {len(rows)} seeds | " + " | ".join(cells) + f" | {cpu} |")
+    return "\n".join(lines)
+
+
+def pareto_plot(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict[str, list[dict[str, Any]]],
+                out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from baselines.metrics import PRIMARY_METRIC
+
+    key = PRIMARY_METRIC[env_id]
+    fig, ax = plt.subplots(figsize=(6.0, 4.2), dpi=110)
+    markers = iter("sD^vP*X")
+    for name, rows in base.items():
+        e, y = [r["energy_J"] for r in rows], [r[key] for r in rows]
+        em, elo, ehi = interval(e)
+        ym, ylo, yhi = interval(y)
+        ax.errorbar(em, ym, xerr=[[em - elo], [ehi - em]], yerr=[[ym - ylo], [yhi - ym]], fmt=next(markers),
+                    ms=8, capsize=3, label=f"{name} (95% CI over episodes)")
+    for name, rows in agents.items():
+        e, y = [r["metrics"]["energy_J"] for r in rows], [r["metrics"][key] for r in rows]
+        ax.scatter(e, y, s=18, alpha=0.6, color="tab:red")
+        em, elo, ehi = interval(e)
+        ym, ylo, yhi = interval(y)
+        ax.errorbar(em, ym, xerr=[[em - elo], [ehi - em]], yerr=[[ym - ylo], [yhi - ym]], fmt="o", color="tab:red",
+                    ms=9, capsize=3, label=f"{name} (mean, 95% CI over seeds; dots: seeds)")
+    ax.set_xlabel("electrical energy per episode (J)")
+    ax.set_ylabel(key + (" (higher is better)" if key == "return" else " (lower is better)"))
+    ax.set_title(env_id.split("/")[1])
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out)
+    plt.close(fig)
+
+
+def update_doc(doc: Path, text: str) -> None:
+    """Replace the marked section of ``doc`` (appended when the markers are missing)."""
+    block = f"{MARK_BEGIN}\n{text}\n{MARK_END}"
+    old = doc.read_text() if doc.exists() else ""
+    if MARK_BEGIN in old and MARK_END in old:
+        new = re.sub(re.escape(MARK_BEGIN) + r".*?" + re.escape(MARK_END), lambda _: block, old, flags=re.S)
+    else:
+        new = old + ("\n" if old else "") + block + "\n"
+    doc.write_text(new)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.rl_vs_baselines", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--envs", nargs="+", default=list(ENVS))
+    ap.add_argument("--algo", default="ppo")
+    ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
+    ap.add_argument("--timesteps", type=int, default=30_000, help="training timesteps per agent")
+    ap.add_argument("--episodes", type=int, default=5, help="evaluation episodes (held-out seeds)")
+    ap.add_argument("--log-folder", default="logs/rl_vs_baselines")
+    ap.add_argument("--docs", default=str(REPO / "docs"))
+    ap.add_argument("--num-cpus", type=int, default=2)
+    ap.add_argument("--address", default=None, help="Ray cluster (default: local instance)")
+    ap.add_argument("--eval-freq", type=int, default=25_000)
+    ap.add_argument("--reuse-baselines", action="store_true",
+                    help="take the baselines' episodes from the previous docs/agents_results.json")
+    a = ap.parse_args(argv)
+    if len(a.seeds) < 3:
+        print("note: fewer than 3 seeds give no meaningful interval", file=sys.stderr)
+    from agents.sweep import make_trials, run_sweep
+
+    docs = Path(a.docs)
+    results_path = docs / "agents_results.json"
+    previous = read_json(results_path, {}) or {}
+    cache: dict[str, Any] = previous.get("baseline_cache", {}) if a.reuse_baselines else {}
+    trials = make_trials(a.envs, [a.algo], a.seeds, timesteps=a.timesteps, log_folder=a.log_folder,
+                         episodes=a.episodes, save_freq=50_000, eval_freq=a.eval_freq)
+    base_all: dict[str, dict[str, list[dict[str, Any]]]] = {}
+
+    def baselines_job() -> None:  # numpy only: runs in the driver while Ray trains the agents
+        for env_id in a.envs:
+            base_all[env_id] = evaluate_baselines(env_id, a.episodes, cache)
+
+    worker = threading.Thread(target=baselines_job)
+    worker.start()
+    swept = run_sweep(trials, a.address, a.num_cpus)
+    worker.join()
+    command = "python -m benchmarks.rl_vs_baselines " + " ".join(argv if argv is not None else sys.argv[1:])
+    sections = [f"Made by `{command}` ({a.algo.upper()}, {a.timesteps} timesteps per agent, seeds {a.seeds}; "
+                f"{a.episodes} held-out evaluation episodes of the full length per policy).\n"]
+    record: dict[str, Any] = {"command": command, "algo": a.algo, "timesteps": a.timesteps, "seeds": a.seeds,
+                              "episodes": a.episodes, "envs": {}, "baseline_cache": cache}
+    for env_id in a.envs:
+        rows = [{"seed": r["train_info"]["seed"], "cpu_min": r["train_info"]["cpu_s"] / 60.0,
+                 "wall_min": r["train_info"]["wall_s"] / 60.0, "model": r["train_info"]["model"],
+                 "reused": r["reused"], "metrics": {k: v for k, v in r["metrics"].items() if k != "agent"}}
+                for r in swept if r["trial"]["env_id"] == env_id]
+        agents = {f"{a.algo.upper()} ({a.timesteps // 1000}k steps)": rows}
+        base = base_all[env_id]
+        short = env_id.split("/")[1]
+        pareto_plot(env_id, agents, base, docs / "img" / f"pareto_{short}.png")
+        sections.append(f"#### {env_id}\n\n{table(env_id, agents, base)}\n\n![pareto](img/pareto_{short}.png)\n")
+        record["envs"][env_id] = {"agents": rows, "baselines": base}
+    write_json(results_path, record)
+    update_doc(docs / "agents.md", "\n".join(sections))
+    print("\n".join(sections))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
