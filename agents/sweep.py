@@ -59,7 +59,8 @@ def run_trial(trial: Mapping[str, Any]) -> dict[str, Any]:
                      eval_freq=t.get("eval_freq", 25_000), eval_episodes=t.get("eval_episodes", 4),
                      n_eval_envs=t.get("n_eval_envs", 4), tensorboard=t.get("tensorboard", True),
                      progress_bar=False, num_threads=1)
-    out: dict[str, Any] = {"trial": t, "train_info": info, "reused": reused, "metrics": None}
+    out: dict[str, Any] = {"trial": t, "train_info": info, "reused": reused, "metrics": None,
+                           "worker_niceness": os.nice(0) if hasattr(os, "nice") else None}
     if int(t.get("episodes", 0)) > 0 and info["status"] == "finished":
         out["metrics"] = evaluate_agent(info["model"], t["env_id"], int(t["episodes"]),
                                         int(t.get("seed_base", METRIC_SEED_BASE)),
@@ -73,11 +74,13 @@ def make_trials(envs: Sequence[str], algos: Sequence[str], seeds: Sequence[int],
 
 
 def run_sweep(trials: Sequence[Mapping[str, Any]], address: str | None = None, num_cpus: int = 2,
-              cpus_per_trial: float = 1.0) -> list[dict[str, Any]]:
+              cpus_per_trial: float = 1.0, worker_niceness: int = 0) -> list[dict[str, Any]]:
     """Run the trials as Ray tasks; results in the order of ``trials``.
 
     ``address=None`` starts (and afterwards shuts down) a local Ray instance with ``num_cpus``;
-    otherwise connects to that cluster (``"auto"``, ``"ray://host:10001"``, ...).
+    otherwise connects to that cluster (``"auto"``, ``"ray://host:10001"``, ...).  Ray starts its
+    workers at niceness 15 by default, which starves training on a shared machine; the local
+    instance uses ``worker_niceness`` (0: the same priority as the user's other processes).
     """
     try:
         import ray
@@ -87,6 +90,7 @@ def run_sweep(trials: Sequence[Mapping[str, Any]], address: str | None = None, n
     runtime_env = {"env_vars": {"PYTHONPATH": os.pathsep.join([str(REPO_ROOT), os.environ.get("PYTHONPATH", "")])}}
     if not ray.is_initialized():
         if address is None:
+            os.environ["RAY_worker_niceness"] = str(int(worker_niceness))  # noqa: SIM112 (Ray's exact name)
             ray.init(num_cpus=num_cpus, include_dashboard=False, runtime_env=runtime_env, log_to_driver=True,
                      configure_logging=False)
         else:

@@ -22,6 +22,7 @@ def test_two_trial_sweep_on_local_ray(tmp_path: Path) -> None:
     results = run_sweep(trials, num_cpus=2)
     assert not ray.is_initialized()  # the local instance was shut down
     assert [r["train_info"]["seed"] for r in results] == [0, 1]
+    assert [r["worker_niceness"] for r in results] == [0, 0]  # not Ray's default 15
     paths = {r["train_info"]["save_path"] for r in results}
     assert len(paths) == 2  # concurrent trials claimed distinct run directories
     for r in results:
