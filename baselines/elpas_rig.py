@@ -78,7 +78,8 @@ def run_rig(policy: Callable[[np.ndarray], np.ndarray], f_ref: np.ndarray, alpha
 
     Returns ``(n, T)`` series (time axis last): ``t``, ``F_act``, ``F_ref``, ``F_hydropulse``, ``gamma``,
     ``alpha``, ``current``, ``P_el`` (W, signed mean over each step), ``P_charged`` (W, regeneration
-    clipped), and ``failed`` ``(n,)`` plus the recorded keys.
+    clipped), ``failed`` ``(n,)`` (end-stop contact), ``pi_int_max`` ``(n,)`` (largest
+    ``|integrator|`` of the environment's current loop, V) plus the recorded keys.
     """
     if policy is None:
         raise ValueError("policy is required")
@@ -90,6 +91,7 @@ def run_rig(policy: Callable[[np.ndarray], np.ndarray], f_ref: np.ndarray, alpha
     out = {k: np.empty((n, T)) for k in keys}
     rec: dict[str, list[np.ndarray]] = {}
     failed = np.zeros(n, dtype=bool)
+    pi_int_max = np.zeros(n)
     obs = task.observation()
     if hasattr(policy, "reset"):
         policy.reset()
@@ -101,6 +103,7 @@ def run_rig(policy: Callable[[np.ndarray], np.ndarray], f_ref: np.ndarray, alpha
         f_now = task.s["f_ref"].copy()
         obs, _, term, info = task.step(a)
         failed |= term
+        pi_int_max = np.maximum(pi_int_max, np.abs(task.s["pi_int"]))
         x = task.s["x"]
         out["F_act"][:, k] = em.actuator_force_of(p, x)
         out["F_ref"][:, k] = f_now
@@ -117,4 +120,5 @@ def run_rig(policy: Callable[[np.ndarray], np.ndarray], f_ref: np.ndarray, alpha
     for key, vals in rec.items():
         out[key] = np.stack(vals, axis=-1)
     out["failed"] = failed
+    out["pi_int_max"] = pi_int_max
     return out

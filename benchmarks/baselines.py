@@ -1,0 +1,162 @@
+"""Run every baseline on its environment over fixed seeds and tabulate the metrics.
+
+``python -m benchmarks.baselines [--quick] [--json FILE] [--md FILE] [--plots DIR]``
+
+Rows: each baseline of :mod:`baselines` on the environment it is built for, plus the zero and
+the random policy on the same environment settings, plus the ideal-force skyhook *reference*
+for the quarter car (a linear model with an ideal force actuator: no motor, no limits -- an upper
+reference, not a policy on the environment).  Metrics: :func:`baselines.metrics.evaluate_policy`
+(the same function the RL agents are evaluated with).  ``--quick`` uses 2 seeds and short
+episodes (under two minutes); the default uses 5 seeds and the registered episode lengths.
+
+Environment settings: the eLPAS baselines drive the paper's current loop (``control_mode="current"``);
+the quarter car runs on an ISO 8608 class B road (``road_class="B"``): on the registered default
+(class C at 20 m/s) the tyre lifts off -- which ends the episode -- within about 0.6 s for two of three
+seeds even with the passive suspension, so comfort could not be compared over whole episodes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from baselines.elpas_cascade import ElpasCascadeConfig, elpas_cascade_factory  # noqa: E402
+from baselines.metrics import evaluate_policy, random_policy_factory, zero_policy_factory  # noqa: E402
+from baselines.quarter_car import ideal_skyhook_reference, passive_factory, skyhook_factory  # noqa: E402
+from baselines.vsaut2_decoupled import vsaut2_decoupled_factory  # noqa: E402
+
+FT = "vsa_gym/ELPAS-ForceTracking-v0"
+QC = "vsa_gym/ELPAS-QuarterCar-v0"
+PS = "vsa_gym/VsaUT2-PositionStiffness-v0"
+ENV_KWARGS: dict[str, dict[str, Any]] = {
+    FT: {"control_mode": "current"},
+    QC: {"control_mode": "current", "road_class": "B"},
+    PS: {},
+}
+BASELINES: list[tuple[str, str, Callable[[Any], Any]]] = [
+    ("eLPAS cascade (paper: 2-D lookup)", FT, elpas_cascade_factory()),
+    ("eLPAS cascade + 3-D lookup (alpha-compensated)", FT, elpas_cascade_factory(
+        ElpasCascadeConfig(alpha_compensation=True))),
+    ("vsaUT-II decoupled PID + feed-forward", PS, vsaut2_decoupled_factory()),
+    ("passive (eLPAS held at gamma = 0)", QC, passive_factory()),
+    ("skyhook through the eLPAS cascade", QC, skyhook_factory()),
+]
+REFERENCES: list[tuple[str, Callable[[Any], Any]]] = [("zero policy", zero_policy_factory),
+                                                       ("random policy", random_policy_factory)]
+COLUMNS = (("tracking / comfort", None), ("energy_J", "{:.1f}"), ("peak_power_W", "{:.0f}"),
+           ("violations", "{:d}"), ("steps", "{:.0f}"))
+
+
+def _tracking(row: dict[str, Any]) -> str:
+    if "force_rms_N" in row:
+        return f"force RMS {row['force_rms_N']:.1f} N"
+    if "position_rms_rad" in row:
+        return (f"position RMS {row['position_rms_rad']:.3f} rad, ln K RMS {row['log_stiffness_rms']:.2f} "
+                f"({100 * row['stiffness_rel_rms']:.0f} %)")
+    if "comfort_aw_rms" in row:
+        return (f"a_w {row['comfort_aw_rms']:.3f} m/s^2, travel RMS {1e3 * row['travel_rms_m']:.1f} mm, "
+                f"tyre load RMS {100 * row['tyre_load_rms']:.1f} %")
+    return f"return {row['return']:.1f}"
+
+
+def markdown(rows: list[dict[str, Any]]) -> str:
+    lines = ["| environment | policy | tracking / comfort | energy (J) | peak power (W) | violations | steps |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        env = r["env_id"].split("/")[-1]
+        if r.get("reference_only"):
+            lines.append(f"| {env} | {r['policy']} | {_tracking(r)} | -- | -- | -- | {r['steps']:.0f} |")
+            continue
+        lines.append(f"| {env} | {r['policy']} | {_tracking(r)} | {r['energy_J']:.1f} | {r['peak_power_W']:.0f} | "
+                     f"{r['violations']} / {r['episodes']} | {r['steps']:.0f} |")
+    return "\n".join(lines)
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    seeds = [0, 1] if quick else [0, 1, 2, 3, 4]
+    steps = {FT: 600, QC: 500, PS: 500} if quick else {FT: None, QC: None, PS: None}
+    rows: list[dict[str, Any]] = []
+    t0 = time.time()
+    for env_id in (FT, PS, QC):
+        entries = [(n, f) for n, e, f in BASELINES if e == env_id] + REFERENCES
+        for name, fac in entries:
+            r = evaluate_policy(env_id, fac, seeds, episode_steps=steps[env_id], env_kwargs=ENV_KWARGS[env_id])
+            r["policy"] = name
+            r["baseline"] = (name, fac) not in REFERENCES
+            r["env_kwargs"] = ENV_KWARGS[env_id]
+            rows.append(r)
+            print(f"{time.time() - t0:6.1f} s  {env_id.split('/')[-1]:28s} {name:48s} {_tracking(r)}", flush=True)
+        if env_id == QC:
+            n_steps = int(rows[-1]["steps"])
+            ref = ideal_skyhook_reference(seeds, n_steps, env_kwargs=ENV_KWARGS[QC])
+            rows.append({"env_id": QC, "policy": "ideal-force skyhook (upper reference, ignores actuator limits)",
+                         "reference_only": True, "episodes": len(seeds), "steps": float(n_steps),
+                         "comfort_aw_rms": ref["comfort_aw_rms"], "travel_rms_m": ref["travel_rms_m"],
+                         "tyre_load_rms": ref["tyre_load_rms"], "linear_passive": ref["passive_linear"],
+                         "metric": "comfort_aw_rms", "metric_value": ref["comfort_aw_rms"]})
+    return {"rows": rows, "seeds": seeds, "quick": quick, "wall_s": time.time() - t0}
+
+
+def plot(result: dict[str, Any], out: Path) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    rows = result["rows"]
+    envs = list(dict.fromkeys(r["env_id"] for r in rows))
+    fig, ax = plt.subplots(2, len(envs), figsize=(5.5 * len(envs), 7))
+    for j, env in enumerate(envs):
+        rr = [r for r in rows if r["env_id"] == env]
+        names = [r["policy"] for r in rr]
+        vals = [r["metric_value"] for r in rr]
+        colors = ["tab:blue" if r.get("baseline") else ("tab:green" if r.get("reference_only") else "0.6")
+                  for r in rr]
+        y = np.arange(len(rr))
+        ax[0, j].barh(y, vals, color=colors)
+        ax[0, j].set_yticks(y, [n[:38] for n in names], fontsize=7)
+        ax[0, j].set_title(f"{env.split('/')[-1]}: {rr[0]['metric']}", fontsize=9)
+        ax[0, j].invert_yaxis()
+        en = [r.get("energy_J", np.nan) for r in rr]
+        ax[1, j].barh(y, en, color=colors)
+        ax[1, j].set_yticks(y, [n[:38] for n in names], fontsize=7)
+        ax[1, j].set_title("electrical energy per episode (J)", fontsize=9)
+        ax[1, j].invert_yaxis()
+    fig.suptitle(f"Baselines (blue) vs zero / random policies (grey); seeds {result['seeds']}"
+                 + (" -- quick" if result["quick"] else ""))
+    fig.tight_layout()
+    path = out / ("baselines_metrics_quick.png" if result["quick"] else "baselines_metrics.png")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return [path]
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="2 seeds, short episodes (< 2 min)")
+    ap.add_argument("--json", type=Path, default=None, help="write all rows as JSON")
+    ap.add_argument("--md", type=Path, default=None, help="write the markdown table")
+    ap.add_argument("--plots", type=Path, default=Path("docs/img"), help="directory of the plots")
+    a = ap.parse_args(argv)
+    res = run(a.quick)
+    table = markdown(res["rows"])
+    print(table)
+    print(f"wall time {res['wall_s']:.1f} s")
+    for pth in plot(res, a.plots):
+        print(f"wrote {pth}")
+    if a.json is not None:
+        a.json.parent.mkdir(parents=True, exist_ok=True)
+        a.json.write_text(json.dumps(res, indent=2, default=str))
+    if a.md is not None:
+        a.md.parent.mkdir(parents=True, exist_ok=True)
+        a.md.write_text(table + "\n")
+
+
+if __name__ == "__main__":
+    main()
