@@ -5,6 +5,10 @@ Sub-commands:
 * ``vsa-gym reproduce {vsaut2,elpas,all} [--out DIR]`` -- regenerate the papers' figures,
   a markdown report and ``summary.json`` per device.
 * ``vsa-gym datasheet vsaut2 [--json FILE]`` -- Table IV of the vsaUT-II from the model.
+* ``vsa-gym data check FILE`` -- validate a measured record (CSV/Parquet + JSON sidecar,
+  ``docs/measured-data.md``); lists every problem and exits non-zero on any.
+* ``vsa-gym identify DATA [--json FILE] [--out DIR]`` -- replay, diagnose and select model
+  effects for a record (a path, or a shipped name such as ``emps``; ``docs/identification.md``).
 
 Each device package provides ``reproduce.run(out_dir) -> dict`` (the flat summary
 map written to ``summary.json``); the CLI only dispatches, so the figure code
@@ -50,6 +54,50 @@ def _datasheet(args: argparse.Namespace) -> int:
     return 0
 
 
+def _data_check(args: argparse.Namespace) -> int:
+    from vsa_gym.identify.record import check_record, resolve
+
+    status = 0
+    for item in args.files:
+        path, _ = resolve(item)
+        problems = check_record(path)
+        if problems:
+            status = 1
+            print(f"{path}: {len(problems)} problem(s)")
+            for p in problems:
+                print(f"  - {p}")
+        else:
+            print(f"{path}: ok")
+    return status
+
+
+def _identify(args: argparse.Namespace) -> int:
+    from vsa_gym.identify.pipeline import identify
+    from vsa_gym.identify.record import RecordError
+
+    t0 = time.perf_counter()
+    try:
+        result = identify(args.data, max_effects=args.max_effects, replay=args.replay)
+    except (RecordError, ValueError, FileNotFoundError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    print("\n".join(result.statements()))
+    print(f"\nheld-out: {result.test_name}")
+    print(result.to_frame().to_string(index=False))
+    if args.json:
+        result.to_json(args.json)
+        print(f"wrote {args.json}")
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        result.to_json(out / "identification.json")
+        (out / "report.md").write_text(result.report_markdown())
+        files = result.plot(out)
+        print(f"wrote {out}/identification.json, report.md, " + ", ".join(f.name for f in files))
+    print(f"[{time.perf_counter() - t0:.1f} s]")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vsa-gym", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -63,6 +111,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("device", choices=("vsaut2",))
     p.add_argument("--json", default=None, help="also write the rows as JSON to this file")
     p.set_defaults(func=_datasheet)
+
+    p = sub.add_parser("data", help="measured-data tools")
+    dsub = p.add_subparsers(dest="data_command", required=True)
+    q = dsub.add_parser("check", help="validate measured records; exits non-zero on any problem")
+    q.add_argument("files", nargs="+", help="CSV/Parquet files with a JSON sidecar, or shipped record names")
+    q.set_defaults(func=_data_check)
+
+    p = sub.add_parser("identify", help="replay, diagnose and select model effects for a measured record")
+    p.add_argument("data", help="record path or shipped name (emps, emps-train, ced-1, ced-2)")
+    p.add_argument("--json", default=None, help="write effects and before/after metrics as JSON")
+    p.add_argument("--out", default=None, help="folder for the report, JSON and plots")
+    p.add_argument("--max-effects", type=int, default=2, help="most effects to accept (default 2)")
+    p.add_argument("--replay", choices=("open_loop", "closed_loop"), default=None,
+                   help="override the sidecar's replay mode")
+    p.set_defaults(func=_identify)
     return parser
 
 

@@ -240,7 +240,7 @@ def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
     mmin = np.minimum(frac, 1 - frac) * m
     rates.append(np.where(two, np.sqrt(k / mmin) + P[:, PIDX["c_c"]] / mmin, 0.0))
     lam = float(np.max(np.concatenate([np.atleast_1d(r) for r in rates])))
-    return int(max(base, np.ceil(lam * dt / 1.5)))
+    return int(min(max(base, np.ceil(lam * dt / 1.5)), 400))
 
 
 def simulate(P: np.ndarray, u: np.ndarray, dt: float, *, x0: np.ndarray | None = None,

@@ -78,6 +78,7 @@ class MeasurementModel:
 
     rectify: bool = False
     filter_hz: float = 0.0
+    bias: float = 0.0  # known mean error of the sensor, e.g. -resolution/2 of a floor quantiser (encoders)
 
     def apply(self, t: np.ndarray, x: np.ndarray, gain: np.ndarray | None = None, offset: np.ndarray | None = None,
               delay: np.ndarray | None = None) -> np.ndarray:
@@ -101,7 +102,7 @@ class MeasurementModel:
             y = y * (1.0 + np.broadcast_to(gain, (n,)))
         if offset is not None:
             y = y + np.broadcast_to(offset, (n,))
-        return y
+        return y + self.bias
 
 
 def sensor_specs(column: str, y_scale: float, dt: float, duration: float) -> dict[str, EffectSpec]:

@@ -1,0 +1,96 @@
+"""Hidden effects in seeded synthetic drive records: the right cause, its parameter, nothing else.
+
+Each record hides one effect of random magnitude (``vsa_gym.identify.synthetic.DRIVE_RANGES``),
+with encoder quantisation (10 um, floor) and white noise (20 um).  Tolerance on the
+recovered main parameter: 10 % relative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vsa_gym.identify.drive import DriveParams, simulate
+from vsa_gym.identify.pipeline import Identifier
+from vsa_gym.identify.synthetic import make_drive_record
+from vsa_gym.physics.friction import CoulombViscousParams, coulomb_viscous_moment
+
+REL_TOL = 0.10
+MAIN = {"coulomb_friction": "F_c", "stribeck_friction": "F_s", "viscous_friction": "b", "backlash": "width",
+        "transmission_compliance": "compliance", "gearbox_efficiency": "loss", "hysteresis": "F_h",
+        "inertia_error": "rel", "force_offset": "F_0", "sensor_gain": "gain", "sensor_offset": "offset",
+        "sensor_delay": "delay"}
+
+
+def _check(effect: str, seed: int) -> None:
+    rec, truth = make_drive_record(seed, effect)
+    res = Identifier().fit(rec).result_
+    names = [e["name"] for e in res.effects]
+    assert names == [effect], f"planted {effect} {truth['params']}, named {names}: {res.statements()}"
+    key = MAIN[effect]
+    got = res.effects[0]["parameters"][key]
+    want = truth["params"][f"{effect}.{key}"]
+    assert got == pytest.approx(want, rel=REL_TOL)
+    lo, hi = res.effects[0]["ci"][key]
+    assert lo < hi and not lo <= 0.0 <= hi
+    for out, before in res.metrics_before.items():
+        assert res.metrics_after[out]["rmse"] < 0.5 * before["rmse"]
+    assert "95 % CI" in res.statements()[0]
+
+
+@pytest.mark.parametrize("effect", ["coulomb_friction", "stribeck_friction", "gearbox_efficiency", "hysteresis",
+                                    "viscous_friction", "force_offset"])
+def test_physical_effect_is_named_and_recovered(effect):
+    _check(effect, seed=11)
+
+
+# look-alike pairs: each member planted, the other must not be named
+@pytest.mark.parametrize("effect", ["coulomb_friction", "sensor_offset"])
+def test_lookalike_coulomb_vs_offset(effect):
+    _check(effect, seed=3)
+
+
+@pytest.mark.parametrize("effect", ["coulomb_friction", pytest.param("backlash", marks=pytest.mark.xfail(
+    strict=True, reason="known: the backlash contact stiffness (30 Hz) trades off against transmission_compliance; "
+    "backlash is named first but compliance is accepted as a second effect and the width is biased"))])
+def test_lookalike_coulomb_vs_backlash(effect):
+    _check(effect, seed=4)
+
+
+@pytest.mark.parametrize("effect", ["sensor_gain", "inertia_error"])
+def test_lookalike_gain_vs_inertia(effect):
+    _check(effect, seed=5)
+
+
+@pytest.mark.parametrize("effect", ["transmission_compliance", "sensor_delay"])
+def test_lookalike_compliance_vs_delay(effect):
+    _check(effect, seed=6)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3, 4])
+def test_negative_control_reports_none(seed):
+    rec, _ = make_drive_record(100 + seed, None)
+    res = Identifier().fit(rec).result_
+    assert res.effects == []
+    assert res.statements()[0].startswith("No significant effect")
+    assert any(c.fitted and not c.accepted for c in res.candidates)
+
+
+def test_random_effect_generator_is_seeded():
+    a, ta = make_drive_record(7)
+    b, tb = make_drive_record(7)
+    assert ta == tb
+    np.testing.assert_array_equal(a.output("position"), b.output("position"))
+    assert make_drive_record(8)[1] != ta
+
+
+def test_drive_friction_matches_the_physics_component():
+    """The drive's Coulomb + viscous law is the one of vsa_gym.physics.friction (steady motion)."""
+    F_c, b, eps = 2.0, 5.0, 1e-3
+    for v in (-0.3, 0.2):
+        # balance k_u u = F_c tanh(v/eps) + b v at constant speed: start there, check it stays
+        f = float(coulomb_viscous_moment(CoulombViscousParams(F_c=F_c, b=b, omega_eps=eps), np.array(v)))
+        P = DriveParams(m=1.0, b=b, k_u=1.0, F_c=F_c, v_eps=eps).vector(1)
+        x0 = np.array([0.0, v, 0.0, v, 0.0, 0.0])
+        y = simulate(P, np.full(200, f), 1e-3, x0=x0)
+        assert y[-1, 0, 1] == pytest.approx(v, rel=1e-9)

@@ -1,0 +1,68 @@
+"""The measured-data format: the checker names every problem, the CLI exits non-zero on any."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from vsa_gym.cli import main
+from vsa_gym.identify.record import RecordError, check_record, load_record, resolve, write_record
+from vsa_gym.identify.synthetic import drive_meta
+
+
+def _good(tmp_path):
+    t = np.arange(200) * 1e-3
+    table = pd.DataFrame({"t": t, "u": np.sin(t), "x": np.cos(t)})
+    path = write_record(tmp_path / "rec.csv", table, drive_meta())
+    return path, table, drive_meta()
+
+
+def test_valid_record_round_trips(tmp_path):
+    path, table, _ = _good(tmp_path)
+    assert check_record(path) == []
+    rec = load_record(path)
+    assert rec.device == "drive" and len(rec) == 200 and rec.dt == pytest.approx(1e-3)
+    np.testing.assert_allclose(rec.output("position"), table["x"], rtol=1e-11)
+    assert main(["data", "check", str(path)]) == 0
+
+
+def test_every_problem_is_named(tmp_path):
+    path, table, meta = _good(tmp_path)
+    bad = table.drop(columns=["x"])
+    bad.loc[5, "u"] = np.nan
+    bad.loc[10, "t"] = bad.loc[9, "t"]
+    meta = json.loads(json.dumps(meta))
+    meta["inputs"]["u"]["unit"] = "mV"
+    meta["inputs"]["alpha"] = {"quantity": "alpha", "unit": "rad"}
+    bad["alpha"] = 0.0
+    bad.to_csv(path, index=False)
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    problems = check_record(path)
+    text = "\n".join(problems)
+    assert "missing column 'x'" in text
+    assert "not strictly increasing at row 10" in text
+    assert "column 'u': 1 NaN" in text
+    assert "wrong unit 'mV' for 'voltage'" in text
+    assert "'alpha' is not an input of device 'drive'" in text
+    assert len(problems) == 5
+    assert main(["data", "check", str(path)]) == 1
+    with pytest.raises(RecordError, match="missing column 'x'"):
+        load_record(path)
+
+
+def test_missing_sidecar_and_unknown_device(tmp_path):
+    path, _, meta = _good(tmp_path)
+    path.with_suffix(".json").unlink()
+    assert "sidecar rec.json not found" in check_record(path)[0]
+    meta = dict(meta, device="robot")
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    assert "unknown device 'robot'" in check_record(path)[0]
+
+
+def test_shipped_records_pass_the_checker():
+    for name in ("emps",):
+        fit, test = resolve(name)
+        assert check_record(fit) == [] and check_record(test) == []
