@@ -7,7 +7,6 @@ cd "$(dirname "$0")/.."
 mkdir -p out
 vsa-gym reproduce all --out out/reproduce
 vsa-gym datasheet vsaut2 --json out/datasheet_vsaut2.json
-if vsa-gym identify --help >/dev/null 2>&1; then
-  vsa-gym identify emps --json out/identify_emps.json --out out/identify_emps
-fi
+vsa-gym data check emps
+vsa-gym identify emps --json out/identify_emps.json --out out/identify_emps
 echo "main job done: see out/"
