@@ -51,6 +51,7 @@ class PassiveHold(ElpasCascade):
 class SkyhookConfig:
     c_sky: float = 3000.0  # N s/m, skyhook damping
     hp_hz: float = 0.3  # high-pass of the accelerometer integration (leaky integrator)
+    lp_hz: float = 0.0  # optional first-order low-pass on the speed estimate (0: off)
 
 
 class SkyhookCascade(ElpasCascade):
@@ -64,17 +65,21 @@ class SkyhookCascade(ElpasCascade):
             raise ValueError("SkyhookCascade needs the body_accel observation")
         self.F_static = float(self.params.car.m_s) * GRAVITY
         self._leak = float(np.exp(-2.0 * np.pi * self.sky.hp_hz * self.config.dt))
+        self._lpv = 1.0 - float(np.exp(-2.0 * np.pi * self.sky.lp_hz * self.config.dt)) if self.sky.lp_hz > 0 else 1.0
 
     def reset(self) -> None:
         super().reset()
         self.v_hat = np.zeros(0)
+        self.v_f = np.zeros(0)
 
     def force_reference(self, obs: np.ndarray) -> np.ndarray:
         if self.v_hat.shape[0] != obs.shape[0]:
             self.v_hat = np.zeros(obs.shape[0])
+            self.v_f = np.zeros(obs.shape[0])
         acc = obs[:, self.idx["body_accel"]].astype(np.float64)
         self.v_hat = self._leak * self.v_hat + acc * self.config.dt
-        return self.F_static - self.sky.c_sky * self.v_hat
+        self.v_f = self.v_f + self._lpv * (self.v_hat - self.v_f)
+        return self.F_static - self.sky.c_sky * self.v_f
 
 
 def _factory(cls: type[ElpasCascade], **kw: Any):  # noqa: ANN202
