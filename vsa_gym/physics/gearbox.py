@@ -36,6 +36,7 @@ import dataclasses
 import numpy as np
 from numba.extending import register_jitable
 
+from vsa_gym.physics.kernels import select
 from vsa_gym.physics.parameters import ParameterSet, param
 
 
@@ -72,8 +73,8 @@ def efficiency(p: GearboxParams, tau_out: np.ndarray) -> np.ndarray:
 def _load_over_eta(p: GearboxParams, abs_tau: np.ndarray) -> np.ndarray:
     """``|tau| / eta(|tau|)``, finite at zero load (limit ``tau_max / (alpha eta_max)``)."""
     x = p.alpha * abs_tau / p.tau_max
-    safe = np.where(x > 1e-9, x, 1.0)
-    ratio = np.where(x > 1e-9, safe / (-np.expm1(-safe)), 1.0 + 0.5 * x)
+    safe = select(x > 1e-9, x, 1.0)
+    ratio = select(x > 1e-9, safe / (-np.expm1(-safe)), 1.0 + 0.5 * x)
     return ratio * p.tau_max / (p.alpha * p.eta_max)
 
 

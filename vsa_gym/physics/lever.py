@@ -38,6 +38,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from vsa_gym.physics.contact import two_sided_stop
+from vsa_gym.physics.kernels import select
 from vsa_gym.physics.parameters import ParameterSet, param
 
 #: Smoothing widths of the stops (m, rad) -- numerics, see :mod:`vsa_gym.physics.contact`.
@@ -113,7 +114,7 @@ def lever_forces(
     qc = np.maximum(q1, p.q1_min)
     active = q1 > p.q1_min
     rho = (p.l - qc) / qc
-    drho = np.where(active, -p.l / (qc * qc), 0.0)  # d rho / d q1
+    drho = select(active, -p.l / (qc * qc), 0.0)  # d rho / d q1
     s, c = np.sin(phi), np.cos(phi)
     x = p.l * rho * s
     dx_dphi = p.l * rho * c

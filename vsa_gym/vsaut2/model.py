@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping, Sequence
-from typing import NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import numba
 import numpy as np
@@ -65,6 +65,7 @@ from vsa_gym.physics.contact import two_sided_stop
 from vsa_gym.physics.dc_motor import applied_voltage, current_derivative, shaft_torque
 from vsa_gym.physics.gearbox import input_torque
 from vsa_gym.physics.integrate import rk4
+from vsa_gym.physics.kernels import flatten_rows, row_reader
 from vsa_gym.physics.lever import lever_forces, spring_stiffness
 from vsa_gym.physics.parameters import as_batch
 from vsa_gym.physics.pivot import gear_ratio, pivot_jacobian, pivot_position, sun_inertia
@@ -164,7 +165,10 @@ class VsaUT2Model:
             th1_max=p.theta1_max,
         )
         object.__setattr__(self, "_d", derived)
-        object.__setattr__(self, "_p_tuple", p.as_tuple())
+        object.__setattr__(self, "_bs", p.batch_size)  # the property walks every field: once, not per step
+        # compiled path: every leaf an (m,) float64 array (m = 1 or n), one numba signature batched or not
+        object.__setattr__(self, "_p_rows", flatten_rows(p.as_tuple()))
+        object.__setattr__(self, "_d_rows", flatten_rows(derived))
 
     @property
     def n_states(self) -> int:
@@ -226,7 +230,7 @@ class VsaUT2Model:
             # contiguous float64 inputs keep numba at one compiled signature
             dx, pw = _rhs_compiled(np.ascontiguousarray(x), np.ascontiguousarray(u, dtype=np.float64),
                                    np.array(np.broadcast_to(tau_ext, x.shape[:1]), dtype=np.float64),
-                                   self._p_tuple, self._d)
+                                   self._p_rows, self._d_rows)
             return (dx[0], pw[0]) if flat else (dx, pw)
         ports = np.zeros((x.shape[0], len(PORTS)))
         p_ext_diss = np.zeros(x.shape[0])
@@ -264,7 +268,7 @@ class VsaUT2Model:
         if x.ndim != 2 or x.shape[1] != self.n_states:
             raise ValueError(f"state x: expected shape (n, {self.n_states}), got {x.shape}")
         n = x.shape[0]
-        bs = self.params.batch_size
+        bs = self._bs
         if bs is not None and bs != n:
             raise ValueError(f"state x has {n} rows but the parameter batch has {bs}")
         u = as_batch("u (motor voltages [pivot, frame])", u, n, 2)
@@ -276,8 +280,9 @@ class VsaUT2Model:
         if self.extensions or not self.compiled:
             x_new, energy = rk4(lambda y: self.rhs(y, u, tau), x, dt, n_sub)
         else:
-            x_new, energy = _rk4_compiled(np.ascontiguousarray(x), np.ascontiguousarray(u), np.ascontiguousarray(tau),
-                                          self._p_tuple, self._d, float(dt), int(n_sub))
+            kernel = _rk4_compiled_parallel if n >= PARALLEL_MIN_ROWS else _rk4_compiled
+            x_new, energy = kernel(np.ascontiguousarray(x), np.ascontiguousarray(u), np.ascontiguousarray(tau),
+                                   self._p_rows, self._d_rows, float(dt), int(n_sub))
         if not np.all(np.isfinite(x_new)):
             raise FloatingPointError("vsaUT-II integration produced a non-finite state; reduce dt")
         return x_new, energy
@@ -348,20 +353,20 @@ class VsaUT2Model:
 
 
 @register_jitable
-def _rhs_core(
-    x: np.ndarray, u: np.ndarray, tau_ext: np.ndarray, p: VsaUT2Params, d: _Derived, ports: np.ndarray,
-    dx: np.ndarray, pw: np.ndarray,
-) -> None:
-    """The vsaUT-II equations of motion (module docstring), written once.
+def _rhs_point(
+    p: VsaUT2Params, d: _Derived, i1: Any, th1: Any, w1: Any, i2: Any, th2: Any, w2: Any, q2: Any, q2d: Any,
+    r: Any, rd: Any, u_1: Any, u_2: Any, tau_ext: Any, pt0: Any, pt1: Any, pt2: Any, pt3: Any, pt4: Any,
+    pt5: Any, pt6: Any,
+) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
+    """The vsaUT-II equations of motion (module docstring), written once, element-wise.
 
-    Runs as plain numpy (``p`` a :class:`VsaUT2Params`) and compiled by numba (``p``
-    its :meth:`~vsa_gym.physics.parameters.ParameterSet.as_tuple`).  ``x``: ``(n, >= 10)``;
-    ``ports``: ``(n, 7)`` additive extension forces in :data:`PORTS` order; fills ``dx``
-    (first 10 columns) and ``pw`` ``(n, 7)`` in place.
+    Every state, input and port argument is either an ``(n,)`` column (numpy path, ``p`` a
+    :class:`VsaUT2Params`) or a float (compiled per-row path, ``p`` one row of the parameter
+    tuple, see :func:`vsa_gym.physics.kernels.row_of`).  ``pt0..pt6`` are the additive
+    extension forces in :data:`PORTS` order.  Returns the 10 state derivatives and the 7
+    power channels.
     """
     m1, m2, g1, g2 = p.pivot_motor, p.frame_motor, p.pivot_gearbox, p.frame_gearbox
-    i1, th1, w1, i2, th2, w2 = x[:, 0], x[:, 1], x[:, 2], x[:, 3], x[:, 4], x[:, 5]
-    q2, q2d, r, rd = x[:, 6], x[:, 7], x[:, 8], x[:, 9]
 
     # kinematics
     th_s = th1 / g1.n
@@ -372,13 +377,13 @@ def _rhs_core(
 
     # elastic elements (+ extension ports)
     lev = lever_forces(p.lever, q1, r - q2, q1_dot, rd - q2d)
-    F_b = belt_force(p.belt, delta) + ports[:, 0]
-    tau_phi = lev.tau_phi + ports[:, 1]
-    F_q1 = lev.F_q1 + ports[:, 2]
+    F_b = belt_force(p.belt, delta) + pt0
+    tau_phi = lev.tau_phi + pt1
+    F_q1 = lev.F_q1 + pt2
 
     # motors: amplifier limits, circuits
-    u1 = applied_voltage(m1, u[:, 0], i1, w1)
-    u2 = applied_voltage(m2, u[:, 1], i2, w2)
+    u1 = applied_voltage(m1, u_1, i1, w1)
+    u2 = applied_voltage(m2, u_2, i2, w2)
 
     # gearboxes: pivot force seen at the GP26B output, belt load at the GP42C output
     tau_in1, p_gb1 = input_torque(g1, -F_q1 * jac, w1)
@@ -388,52 +393,118 @@ def _rhs_core(
     stop1 = two_sided_stop(th1, w1, -STOP_MARGIN_MOTOR, d.th1_max + STOP_MARGIN_MOTOR, p.K_s1, p.D_s1, STOP_EPS_MOTOR)
     stop2 = two_sided_stop(q2, q2d, -p.q2_max, p.q2_max, p.K_q2, p.D_q2, STOP_EPS_FRAME)
 
-    dx[:, 0] = current_derivative(m1, u1, i1, w1)
-    dx[:, 1] = w1
-    dx[:, 2] = (shaft_torque(m1, i1, w1) - tau_in1 + stop1.force + ports[:, 3]) / d.J1
-    dx[:, 3] = current_derivative(m2, u2, i2, w2)
-    dx[:, 4] = w2
-    dx[:, 5] = (shaft_torque(m2, i2, w2) - tau_in2 + ports[:, 4]) / d.J2
-    dx[:, 6] = q2d
-    dx[:, 7] = (p.belt.r_op * F_b - tau_phi - p.c_ad * q2d + stop2.force + ports[:, 5]) / p.I_ad
-    dx[:, 8] = rd
-    dx[:, 9] = (tau_phi - p.c_o * rd + tau_ext + ports[:, 6]) / p.I_o
-
-    pw[:, 0] = u1 * i1
-    pw[:, 1] = u2 * i2
-    pw[:, 2] = tau_ext * rd
-    pw[:, 3] = m1.R * i1**2 + m2.R * i2**2
-    pw[:, 4] = m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2
-    pw[:, 5] = p_gb1 + p_gb2
-    pw[:, 6] = lev.p_diss + stop1.p_diss + stop2.p_diss
-
-
-@numba.njit(cache=True)
-def _rhs_compiled(
-    x: np.ndarray, u: np.ndarray, tau: np.ndarray, p: VsaUT2Params, d: _Derived
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_rhs_core` compiled, without extensions; returns ``(dx, pw)``."""
-    dx = np.empty_like(x)
-    pw = np.empty((x.shape[0], N_POWER))
-    _rhs_core(x, u, tau, p, d, np.zeros((x.shape[0], len(PORTS))), dx, pw)
+    dx = (
+        current_derivative(m1, u1, i1, w1),
+        w1,
+        (shaft_torque(m1, i1, w1) - tau_in1 + stop1.force + pt3) / d.J1,
+        current_derivative(m2, u2, i2, w2),
+        w2,
+        (shaft_torque(m2, i2, w2) - tau_in2 + pt4) / d.J2,
+        q2d,
+        (p.belt.r_op * F_b - tau_phi - p.c_ad * q2d + stop2.force + pt5) / p.I_ad,
+        rd,
+        (tau_phi - p.c_o * rd + tau_ext + pt6) / p.I_o,
+    )
+    pw = (
+        u1 * i1,
+        u2 * i2,
+        tau_ext * rd,
+        m1.R * i1**2 + m2.R * i2**2,
+        m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2,
+        p_gb1 + p_gb2,
+        lev.p_diss + stop1.p_diss + stop2.p_diss,
+    )
     return dx, pw
 
 
-@numba.njit(cache=True)
-def _rk4_compiled(
-    x: np.ndarray, u: np.ndarray, tau: np.ndarray, p: VsaUT2Params, d: _Derived, dt: float, n_sub: int
+def _rhs_core(
+    x: np.ndarray, u: np.ndarray, tau_ext: np.ndarray, p: VsaUT2Params, d: _Derived, ports: np.ndarray,
+    dx: np.ndarray, pw: np.ndarray,
+) -> None:
+    """:func:`_rhs_point` on columns (numpy path). ``x``: ``(n, >= 10)``; ``ports``: ``(n, 7)``.
+
+    Fills ``dx`` (first 10 columns) and ``pw`` ``(n, 7)`` in place.
+    """
+    dxs, pws = _rhs_point(p, d, x[:, 0], x[:, 1], x[:, 2], x[:, 3], x[:, 4], x[:, 5], x[:, 6], x[:, 7], x[:, 8],
+                          x[:, 9], u[:, 0], u[:, 1], tau_ext, ports[:, 0], ports[:, 1], ports[:, 2], ports[:, 3],
+                          ports[:, 4], ports[:, 5], ports[:, 6])
+    for k in range(N_STATES):
+        dx[:, k] = dxs[k]
+    for k in range(N_POWER):
+        pw[:, k] = pws[k]
+
+
+@register_jitable
+def _rhs_row(p: Any, d: Any, y: np.ndarray, u_1: float, u_2: float, tau: float, dx: np.ndarray,
+             pw: np.ndarray) -> None:
+    """:func:`_rhs_point` on one row (floats), no extensions; fills the row vectors ``dx`` and ``pw``."""
+    dxs, pws = _rhs_point(p, d, y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], y[8], y[9], u_1, u_2, tau,
+                          0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for k in range(N_STATES):
+        dx[k] = dxs[k]
+    for k in range(N_POWER):
+        pw[k] = pws[k]
+
+
+
+def _rhs_rows_py(x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any) -> tuple[np.ndarray, np.ndarray]:
+    n = x.shape[0]
+    dx = np.empty((n, N_STATES))
+    pw = np.empty((n, N_POWER))
+    for i in numba.prange(n):
+        _rhs_row(_P_ROW(P, i), _D_ROW(D, i), x[i], u[i, 0], u[i, 1], tau[i], dx[i], pw[i])
+    return dx, pw
+
+
+def _rk4_rows_py(
+    x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any, dt: float, n_sub: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`vsa_gym.physics.integrate.rk4` over :func:`_rhs_core`, compiled (no extensions)."""
+    """:func:`vsa_gym.physics.integrate.rk4` over :func:`_rhs_point`, row by row with floats (no extensions).
+
+    The arithmetic of each element is that of the numpy ``rk4`` (same operations, same order).
+    """
+    n = x.shape[0]
     h = dt / n_sub
-    energy = np.zeros((x.shape[0], N_POWER))
-    for _ in range(n_sub):
-        k1, p1 = _rhs_compiled(x, u, tau, p, d)
-        k2, p2 = _rhs_compiled(x + 0.5 * h * k1, u, tau, p, d)
-        k3, p3 = _rhs_compiled(x + 0.5 * h * k2, u, tau, p, d)
-        k4, p4 = _rhs_compiled(x + h * k3, u, tau, p, d)
-        x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        energy += (h / 6.0) * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
-    return x, energy
+    x_new = np.empty((n, N_STATES))
+    energy = np.zeros((n, N_POWER))
+    for i in numba.prange(n):
+        p = _P_ROW(P, i)
+        d = _D_ROW(D, i)
+        u_1, u_2, te = u[i, 0], u[i, 1], tau[i]
+        y = x[i].copy()
+        yt = np.empty(N_STATES)
+        k = np.empty((4, N_STATES))
+        q = np.empty((4, N_POWER))
+        e = np.zeros(N_POWER)
+        for _ in range(n_sub):
+            _rhs_row(p, d, y, u_1, u_2, te, k[0], q[0])
+            for j in range(N_STATES):
+                yt[j] = y[j] + 0.5 * h * k[0, j]
+            _rhs_row(p, d, yt, u_1, u_2, te, k[1], q[1])
+            for j in range(N_STATES):
+                yt[j] = y[j] + 0.5 * h * k[1, j]
+            _rhs_row(p, d, yt, u_1, u_2, te, k[2], q[2])
+            for j in range(N_STATES):
+                yt[j] = y[j] + h * k[2, j]
+            _rhs_row(p, d, yt, u_1, u_2, te, k[3], q[3])
+            for j in range(N_STATES):
+                y[j] = y[j] + (h / 6.0) * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
+            for j in range(N_POWER):
+                e[j] = e[j] + (h / 6.0) * (q[0, j] + 2.0 * q[1, j] + 2.0 * q[2, j] + q[3, j])
+        x_new[i] = y
+        energy[i] = e
+    return x_new, energy
+
+
+_P_ROW = row_reader(VsaUT2Params().as_tuple())
+_D_ROW = row_reader(_Derived(0.0, 0.0, 0.0, 0.0))
+
+#: Rows at and above which the compiled step runs its row loop on all cores (numba ``prange``).
+PARALLEL_MIN_ROWS = 64
+
+_rhs_compiled = numba.njit(cache=True)(_rhs_rows_py)
+_rk4_compiled = numba.njit(cache=True)(_rk4_rows_py)
+_rk4_compiled_parallel = numba.njit(cache=True, parallel=True)(_rk4_rows_py)
 
 
 def pivot_gamma(params: VsaUT2Params) -> float | np.ndarray:
