@@ -223,7 +223,11 @@ class BatchedTask(ABC):
         self.s["hist_pos"] = np.zeros(self.n, dtype=np.intp)
 
     def _clip_obs(self, obs: np.ndarray) -> np.ndarray:
-        return np.clip(obs, self.obs_low.astype(np.float64), self.obs_high.astype(np.float64)).astype(np.float32)
+        bounds = self.__dict__.get("_obs_bounds64")
+        if bounds is None or bounds[0] is not self.obs_channels:  # the channels are fixed per instance
+            bounds = (self.obs_channels, self.obs_low.astype(np.float64), self.obs_high.astype(np.float64))
+            self._obs_bounds64 = bounds
+        return np.clip(obs, bounds[1], bounds[2]).astype(np.float32)
 
     def _record(self, rows: np.ndarray) -> None:
         if not self.trace_names:

@@ -105,6 +105,25 @@ class VsaUT2Task(BatchedTask):
         else:
             self.params = VsaUT2Params.stack(self.row_params)
         self.model = VsaUT2Model(self.params)
+        self._cols_for: VsaUT2Params | None = None
+
+    def _cols(self) -> dict[str, np.ndarray]:
+        """Per-row parameter columns the step uses, computed once per parameter set (not every step)."""
+        p = self.params
+        if self._cols_for is not p:
+            m1, m2 = p.pivot_motor, p.frame_motor
+            self._cols_cache = {
+                "U_max": np.stack([self._col(m1.U_max), self._col(m2.U_max)], axis=1),
+                "I_max": np.stack([self._col(m1.I_max), self._col(m2.I_max)], axis=1),
+                "th1_max": np.array(self._col(p.theta1_max)),
+                "q2_max": np.array(self._col(p.q2_max)),
+                "phi_max": np.array(self._col(p.lever.phi_max)),
+                "n1": np.array(self._col(p.pivot_gearbox.n)),
+                "ratio": np.array(self._col(p.frame_ratio)),
+                "K_b": np.array(self._col(belt_stiffness_at_frame(p.belt))),
+            }
+            self._cols_for = p
+        return self._cols_cache
 
     def _sample_params(self, rows: np.ndarray) -> None:
         if self.randomization is None:
@@ -165,13 +184,14 @@ class VsaUT2Task(BatchedTask):
 
     def _common_obs(self, rows: np.ndarray) -> np.ndarray:
         p = self.params
+        c = self._cols()
         m, v = self.s["meas"][rows], self.s["vel"][rows]
-        n1 = self._col(p.pivot_gearbox.n)[rows]
-        ratio = self._col(p.frame_ratio)[rows]
+        n1 = c["n1"][rows]
+        ratio = c["ratio"][rows]
         q1 = pivot_position(_rows(p.pivot, rows, self.n), m[:, 0] / n1)
         q2 = m[:, 1] / ratio
         K_s = spring_stiffness(_rows(p.lever, rows, self.n), q1, m[:, 2] - q2)
-        K_b = _rows_value(belt_stiffness_at_frame(p.belt), rows, self.n)
+        K_b = c["K_b"][rows]
         K = np.maximum(K_s * K_b / (K_s + K_b), K_FLOOR)
         K = np.where(K_s > 0, K, K_FLOOR)
         cur = self.s["cur"][rows]
@@ -188,12 +208,12 @@ class VsaUT2Task(BatchedTask):
         x = self.s["x"]
         e_sum = np.zeros((self.n, len(POWER)))
         if self.control_mode == "voltage":
-            u = a * np.stack([self._col(m1.U_max), self._col(m2.U_max)], axis=1)
+            u = a * self._cols()["U_max"]
             if enabled is not None:
                 u = np.where(enabled[:, None], u, 0.0)
             x, e_sum = self.model.step(x, u, tau_ext, self.control_dt)
         else:
-            i_ref = a * np.stack([self._col(m1.I_max), self._col(m2.I_max)], axis=1)
+            i_ref = a * self._cols()["I_max"]
             dt = self.control_dt / self.n_inner
             for _ in range(self.n_inner):
                 u = np.stack([
@@ -215,16 +235,16 @@ class VsaUT2Task(BatchedTask):
 
     # ------------------------------------------------------------------ failures and margins
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
-        p = self.params
+        c = self._cols()
         x = self.s["x"][rows]
         q2, phi = x[:, STATE["q2"]], x[:, STATE["r"]] - x[:, STATE["q2"]]
         th1 = x[:, STATE["th1"]]
-        th1_max = self._col(p.theta1_max)[rows]
-        i_max = np.stack([self._col(p.pivot_motor.I_max), self._col(p.frame_motor.I_max)], axis=1)[rows]
+        th1_max = c["th1_max"][rows]
+        i_max = c["I_max"][rows]
         lim = i2t_limit(i_max, self.i_nominal, self.i2t_trip_s)
         return {
-            "margin_frame_stop": self._col(p.q2_max)[rows] - np.abs(q2),
-            "margin_deflection_stop": self._col(p.lever.phi_max)[rows] - np.abs(phi),
+            "margin_frame_stop": c["q2_max"][rows] - np.abs(q2),
+            "margin_deflection_stop": c["phi_max"][rows] - np.abs(phi),
             "margin_i2t": np.min(1.0 - self.s["i2t"][rows] / lim, axis=1),
             "margin_pivot_stroke": np.minimum(th1, th1_max - th1) / th1_max,
         }
@@ -285,7 +305,7 @@ def _circle(xy: tuple[float, float], radius: float, color: str) -> Any:
 
 def _rows(ps: Any, rows: np.ndarray, n: int) -> Any:
     """A parameter set restricted to ``rows`` when batched (scalars pass through)."""
-    if ps.batch_size is None:
+    if _batch_size(ps) is None:
         return ps
     import dataclasses
 
@@ -295,6 +315,15 @@ def _rows(ps: Any, rows: np.ndarray, n: int) -> Any:
         if isinstance(v, np.ndarray):
             changes[f.name] = v[rows]
     return dataclasses.replace(ps, **changes)
+
+
+def _batch_size(ps: Any) -> int | None:
+    """``ps.batch_size``, memoised on the (frozen) parameter set: the property walks every field."""
+    bs = ps.__dict__.get("_batch_size_memo", -1)
+    if bs == -1:
+        bs = ps.batch_size
+        object.__setattr__(ps, "_batch_size_memo", bs)
+    return bs
 
 
 def _rows_value(v: Any, rows: np.ndarray, n: int) -> np.ndarray:
