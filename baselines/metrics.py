@@ -19,7 +19,9 @@ The row it returns (a flat dict, means over the episodes):
 * ``violations`` (episodes ended by a constraint: end stop, I^2 t trip, tyre lift-off, bump
   stop) and ``violation_steps`` (steps with any ``margin_*`` <= 0, summed over episodes);
 * ``steps`` (mean episode length), ``return`` (mean episode return), ``metric`` (name of the
-  environment's primary tracking metric, :data:`PRIMARY_METRIC`) and ``metric_value``.
+  environment's primary tracking metric, :data:`PRIMARY_METRIC`) and ``metric_value``;
+* ``per_episode``: the same metrics as lists, one entry per seed (row order), e.g. to split a
+  :class:`MixedPolicy` run.
 
 Policies may also be given per row: any callable on ``(n, n_obs)``.  :class:`ZeroPolicy` and
 :class:`RandomPolicy` are the reference policies the tests compare the baselines with.
@@ -82,6 +84,37 @@ def zero_policy_factory(env: Any) -> ZeroPolicy:
 
 def random_policy_factory(env: Any, seed: int = 0) -> RandomPolicy:
     return RandomPolicy(int(env.single_action_space.shape[0]), seed)
+
+
+class MixedPolicy:
+    """Several policies side by side on one vector environment: ``parts[k]`` drives ``counts[k]`` consecutive rows.
+
+    Build it with :func:`mixed_policy_factory` to compare policies in one batched run (the rows of
+    :func:`evaluate_policy`'s ``per_episode`` lists follow the same order).
+    """
+
+    def __init__(self, parts: list[Any], counts: Sequence[int]) -> None:
+        self.parts = parts
+        edges = np.concatenate([[0], np.cumsum(counts)])
+        self.slices = [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+    def reset(self) -> None:
+        for p in self.parts:
+            if hasattr(p, "reset"):
+                p.reset()
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return np.concatenate([np.asarray(p(obs[sl]), dtype=np.float32).reshape(sl.stop - sl.start, -1)
+                               for p, sl in zip(self.parts, self.slices, strict=True)], axis=0)
+
+
+def mixed_policy_factory(factories: Sequence[PolicyFactory], counts: Sequence[int]) -> PolicyFactory:
+    """``policy_factory(env)`` of a :class:`MixedPolicy` (each factory is called with the same env)."""
+
+    def make(env: Any) -> MixedPolicy:
+        return MixedPolicy([f(env) for f in factories], counts)
+
+    return make
 
 
 def evaluate_policy(env_id: str, policy_factory: PolicyFactory, seeds: Sequence[int],
@@ -158,8 +191,21 @@ def _run(env: Any, env_id: str, policy_factory: PolicyFactory, seeds: list[int],
     row: dict[str, Any] = {"env_id": env_id, "episodes": n, "seeds": seeds, "steps": float(length.mean()),
                            "return": float(ret.mean())}
 
+    per: dict[str, list[float]] = {}
+
     def rms(name: str) -> float:
-        return float(np.mean(np.sqrt(sums[name] / L)))
+        v = np.sqrt(sums[name] / L)
+        return float(np.mean(v))
+
+    for key, name in (("force_rms_N", "force_sq"), ("position_rms_rad", "position_sq"),
+                      ("log_stiffness_rms", "logk_sq"), ("comfort_aw_rms", "aw_sq"), ("travel_rms_m", "travel_sq"),
+                      ("tyre_load_rms", "tyre_sq")):
+        if name in sums:
+            per[key] = np.sqrt(sums[name] / L).tolist()
+    per["energy_J"] = sums["energy_el"].tolist()
+    per["peak_power_W"] = peak.tolist()
+    per["violations"] = violations.astype(int).tolist()
+    per["steps"] = length.tolist()
 
     if "force_sq" in sums:
         row["force_rms_N"] = rms("force_sq")
@@ -178,6 +224,7 @@ def _run(env: Any, env_id: str, policy_factory: PolicyFactory, seeds: list[int],
     row["violation_steps"] = int(viol_steps.sum())
     row["metric"] = PRIMARY_METRIC.get(env_id, "return")
     row["metric_value"] = row[row["metric"]]
+    row["per_episode"] = per
     if return_traces:
         row["traces"] = {k: np.stack(v, axis=1) for k, v in traces.items()}
     return row

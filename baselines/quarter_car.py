@@ -7,7 +7,8 @@ paper's cascade :class:`baselines.elpas_cascade.ElpasCascade` and the environmen
   loop (eq. 14); the car rides on the eLPAS's effective stiffness and the parallel damper.
 * :class:`SkyhookCascade` -- skyhook damping realised through the eLPAS cascade:
   ``F_ref = m_s g - c_sky v_hat``, where ``v_hat`` is the body speed estimated from the body
-  accelerometer (``body_accel``) by a leaky integrator (high-pass at ``hp_hz``); ``F_ref`` then
+  accelerometer (``body_accel``) by a leaky integrator (high-pass at ``hp_hz``) and a low-pass at ``lp_hz``
+  (3 Hz: the skyhook acts on the body mode, not on wheel-hop motion it would only lag behind); ``F_ref`` then
   goes through the paper's 10 Hz low-pass, 2-D lookup and angle loop.
 
 Reference (not a policy, not subject to the actuator): :func:`ideal_skyhook_reference` --
@@ -51,7 +52,7 @@ class PassiveHold(ElpasCascade):
 class SkyhookConfig:
     c_sky: float = 3000.0  # N s/m, skyhook damping
     hp_hz: float = 0.3  # high-pass of the accelerometer integration (leaky integrator)
-    lp_hz: float = 0.0  # optional first-order low-pass on the speed estimate (0: off)
+    lp_hz: float = 3.0  # first-order low-pass on the speed estimate, aimed at the body mode (0: off)
 
 
 class SkyhookCascade(ElpasCascade):
