@@ -137,7 +137,7 @@ def test_energy_term_elpas_and_regen_policy() -> None:
             alpha_end = task.alpha_sig.value(task.s, t_new)
             _, _, _, _, info = env.step(a)
             inp = np.array([[a[0] * task.params.motor.U_max, alpha_end[0]]])
-            _, e = em.step_rig(task.params, x0, inp)  # the core's integral: exact bookkeeping
+            _, e = em.step_rig(task.params, x0, inp, compiled=True)  # the core's integral: exact bookkeeping
             assert info["energy_el"] == pytest.approx(e[0, em.P_EL], rel=1e-12, abs=1e-15)
             _, e = em.step_rig(fine, x0, inp)  # independent 10x finer integral
             assert info["energy_el"] == pytest.approx(e[0, em.P_EL], rel=1e-3, abs=1e-6)

@@ -192,7 +192,7 @@ class ElpasTask(BatchedTask):
         e_el = np.zeros(self.n)
         if self.control_mode == "voltage":
             u = a[:, 0] * self._col(p.motor.U_max)
-            x, e = step(p, x, np.stack([u, second_end], axis=1))
+            x, e = step(p, x, np.stack([u, second_end], axis=1), compiled=True)
             e_el = e[:, em.P_EL]
         else:
             m, L = p.motor, self.loop
@@ -203,7 +203,7 @@ class ElpasTask(BatchedTask):
                 self.s["pi_int"] = np.clip(self.s["pi_int"] + L.I_m * err * h, -L.I_m_max, L.I_m_max)
                 u = L.P_m * err + self.s["pi_int"] + m.R * i_ref
                 target = start + (second_end - start) * (k / self.n_inner)
-                x, e = step(p, x, np.stack([u, target], axis=1))
+                x, e = step(p, x, np.stack([u, target], axis=1), compiled=True)
                 e_el = e_el + e[:, em.P_EL]
         self.s["x"] = x
         self.s["i2t"] = i2t_update(self.s["i2t"], x[:, em.CURRENT] ** 2, self.i_nominal, self.control_dt)
