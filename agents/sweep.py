@@ -62,9 +62,14 @@ def run_trial(trial: Mapping[str, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {"trial": t, "train_info": info, "reused": reused, "metrics": None,
                            "worker_niceness": os.nice(0) if hasattr(os, "nice") else None}
     if int(t.get("episodes", 0)) > 0 and info["status"] == "finished":
-        out["metrics"] = evaluate_agent(info["model"], t["env_id"], int(t["episodes"]),
-                                        int(t.get("seed_base", METRIC_SEED_BASE)),
-                                        episode_steps=t.get("episode_steps"))
+        base = int(t.get("seed_base", METRIC_SEED_BASE))
+        steps = t.get("episode_steps")
+        cached = Path(info["save_path"]) / f"metrics_{int(t['episodes'])}ep_{base}_{steps or 'full'}.json"
+        metrics = read_json(cached) if reused else None  # a fresh training run is always evaluated
+        if metrics is None:
+            metrics = evaluate_agent(info["model"], t["env_id"], int(t["episodes"]), base, episode_steps=steps)
+            write_json(cached, metrics)
+        out["metrics"] = metrics
     return out
 
 

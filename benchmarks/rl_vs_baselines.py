@@ -13,7 +13,8 @@ agent and every baseline with :func:`baselines.metrics.evaluate_policy` on the s
 * the table between the ``rl_vs_baselines`` markers in ``docs/agents.md``: mean and 95 %
   interval of the tracking metric, electrical energy, comfort (quarter car) and violations;
   for agents the interval is over the training seeds (Student t on the per-seed means over the
-  episodes), for the deterministic baselines over the episodes; plus the CPU minutes of training;
+  episodes); the deterministic baselines get the mean over the same episodes; plus the CPU minutes
+  of training;
 * ``docs/img/pareto_<env>.png`` -- tracking metric against electrical energy (lower-left is better).
 
 Baselines (from :mod:`baselines`): the paper's cascade (force tracking), passive hold and
@@ -75,19 +76,20 @@ def baseline_factories(env_id: str) -> dict[str, tuple[Callable[[Any], Any], dic
 
 
 def evaluate_baselines(env_id: str, episodes: int, cache: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
-    """Per-episode metrics of every baseline (one ``evaluate_policy`` call per seed, cached by seed)."""
+    """Metrics of every baseline over the held-out episodes (one batched ``evaluate_policy`` call each).
+
+    The baselines are deterministic controllers; the row is the mean over the episodes (batched
+    evaluation returns means only, so no interval is given for them).
+    """
     from baselines.metrics import evaluate_policy
 
+    seeds = [METRIC_SEED_BASE + k for k in range(episodes)]
     out: dict[str, list[dict[str, Any]]] = {}
     for name, (factory, kw) in baseline_factories(env_id).items():
-        rows = []
-        for k in range(episodes):
-            seed = METRIC_SEED_BASE + k
-            key = f"{env_id}|{name}|{seed}"
-            if key not in cache:
-                cache[key] = evaluate_policy(env_id, factory, [seed], env_kwargs=kw or None)
-            rows.append(cache[key])
-        out[name] = rows
+        key = f"{env_id}|{name}|{seeds[0]}|{episodes}"
+        if key not in cache:
+            cache[key] = evaluate_policy(env_id, factory, seeds, env_kwargs=kw or None)
+        out[name] = [cache[key]]
     return out
 
 
@@ -117,7 +119,7 @@ def table(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict[str, 
     lines = [head, "|" + "---|" * (len(cols) + 3)]
     for name, rows in base.items():
         cells = [_cell([r[k] for r in rows], f) for k, _, f in cols]
-        lines.append(f"| {name} | {len(rows)} ep. | " + " | ".join(cells) + " | - |")
+        lines.append(f"| {name} | {rows[0]['episodes']} ep. (mean) | " + " | ".join(cells) + " | - |")
     for name, rows in agents.items():
         cells = [_cell([r["metrics"][k] for r in rows], f) for k, _, f in cols]
         cpu = _cell([r["cpu_min"] for r in rows], "{:.1f}")
@@ -142,7 +144,7 @@ def pareto_plot(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict
         em, elo, ehi = interval(e)
         ym, ylo, yhi = interval(y)
         ax.errorbar(em, ym, xerr=[[em - elo], [ehi - em]], yerr=[[ym - ylo], [yhi - ym]], fmt=next(markers),
-                    ms=8, capsize=3, label=f"{name} (95% CI over episodes)")
+                    ms=8, capsize=3, label=f"{name} (mean over the episodes)")
     for name, rows in agents.items():
         e, y = [r["metrics"]["energy_J"] for r in rows], [r["metrics"][key] for r in rows]
         ax.scatter(e, y, s=18, alpha=0.6, color="tab:red")

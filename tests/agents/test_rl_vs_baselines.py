@@ -20,10 +20,10 @@ def test_table_rows_and_doc_section(tmp_path: Path) -> None:
     env = "vsa_gym/ELPAS-ForceTracking-v0"
     metrics = {"force_rms_N": 100.0, "energy_J": 2.0, "peak_power_W": 50.0, "violations": 0, "return": -10.0}
     agents = {"PPO": [{"cpu_min": 1.0 + s, "metrics": {**metrics, "force_rms_N": 100.0 + s}} for s in range(3)]}
-    base = {"cascade": [dict(metrics, force_rms_N=50.0) for _ in range(2)]}
+    base = {"cascade": [dict(metrics, force_rms_N=50.0, episodes=2)]}
     t = table(env, agents, base)
     lines = t.splitlines()
-    assert len(lines) == 4 and lines[2].startswith("| cascade | 2 ep. | 50.0 |")
+    assert len(lines) == 4 and lines[2].startswith("| cascade | 2 ep. (mean) | 50.0 |")
     assert "| **PPO** | 3 seeds | 101.0 [98.5, 103.5] |" in lines[3] and lines[3].endswith("| 2.0 [-0.5, 4.5] |")
     doc = tmp_path / "agents.md"
     doc.write_text(f"intro\n{MARK_BEGIN}\nold\n{MARK_END}\noutro\n")
