@@ -8,7 +8,7 @@ paper's cascade :class:`baselines.elpas_cascade.ElpasCascade` and the environmen
 * :class:`SkyhookCascade` -- skyhook damping realised through the eLPAS cascade:
   ``F_ref = m_s g - c_sky v_hat``, where ``v_hat`` is the body speed estimated from the body
   accelerometer (``body_accel``) by a leaky integrator (high-pass at ``hp_hz``) and a low-pass at ``lp_hz``
-  (3 Hz: the skyhook acts on the body mode, not on wheel-hop motion it would only lag behind); ``F_ref`` then
+  (1.5 Hz: the skyhook acts on the body mode, not on wheel-hop motion it would only lag behind); ``F_ref`` then
   goes through the paper's 10 Hz low-pass, 2-D lookup and angle loop.
 
 Reference (not a policy, not subject to the actuator): :func:`ideal_skyhook_reference` --
@@ -50,9 +50,9 @@ class PassiveHold(ElpasCascade):
 
 @dataclasses.dataclass(frozen=True)
 class SkyhookConfig:
-    c_sky: float = 3000.0  # N s/m, skyhook damping
+    c_sky: float = 1000.0  # N s/m, skyhook damping (larger values cost energy and W_k comfort, see docs)
     hp_hz: float = 0.3  # high-pass of the accelerometer integration (leaky integrator)
-    lp_hz: float = 3.0  # first-order low-pass on the speed estimate, aimed at the body mode (0: off)
+    lp_hz: float = 1.5  # first-order low-pass on the speed estimate, aimed at the body mode (0: off)
 
 
 class SkyhookCascade(ElpasCascade):
