@@ -252,8 +252,9 @@ def doc_markdown(res: dict[str, Any], table: str, paper: dict[str, Any] | None) 
             "parallel damper and the wheel hop, which a body-velocity skyhook cannot reach: even the ideal-force "
             "skyhook improves it by about 1 % on the same linear car (compare the two values in its row), and the "
             "skyhook through the eLPAS cascade trades a slightly worse a_w for less suspension travel at an energy "
-            "cost (a larger c_sky, e.g. 3000 N s/m, made a_w worse still in our tuning runs).  The zero policy equals the "
-            "passive car here: with no current, friction (0.5 N m at the motor, 29.5 N m at the arm) holds gamma.",
+            "cost (a larger c_sky, e.g. 3000 N s/m, made a_w worse still in our tuning runs).  The zero policy "
+            "equals the passive car here: with no current, friction (0.5 N m at the motor, 29.5 N m at the arm) "
+            "holds gamma.",
             "",
             "![Fig. 16](img/elpas_fig16_frf.png)",
             "![Figs. 14-15](img/elpas_fig14_15_steps.png)",
