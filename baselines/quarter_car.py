@@ -127,10 +127,12 @@ def linear_quarter_car(p: ElpasParams, c_sky: float) -> signal.StateSpace:
     return signal.StateSpace(A, B, C, D)
 
 
-def env_roads(seeds: Sequence[int], steps: int, env_kwargs: dict[str, Any] | None = None) -> tuple[np.ndarray, float]:
-    """The road heights the quarter-car environment uses for each seed, ``(len(seeds), steps + 1)``, and dt.
+def env_roads(seeds: Sequence[int], steps: int,
+              env_kwargs: dict[str, Any] | None = None) -> tuple[np.ndarray, float, ElpasParams]:
+    """The road heights the quarter-car environment uses for each seed, ``(len(seeds), steps + 1)``, dt,
+    and the environment's (unrandomised) parameters.
 
-    Read from the environment after ``reset(seed)`` (the reference must see the same road).
+    Read from the environment after ``reset(seed)`` (the reference must see the same road and car).
     """
     env = gym.make(QUARTER_CAR_ID, **(env_kwargs or {}))
     try:
@@ -141,7 +143,7 @@ def env_roads(seeds: Sequence[int], steps: int, env_kwargs: dict[str, Any] | Non
         for s in seeds:
             env.reset(seed=int(s))
             rows.append(task.s["road"][0, : steps + 1].copy())
-        return np.stack(rows), float(task.control_dt)
+        return np.stack(rows), float(task.control_dt), task.base_rows[0]
     finally:
         env.close()
 
@@ -155,8 +157,8 @@ def ideal_skyhook_reference(seeds: Sequence[int], steps: int, c_sky: float = Sky
     the env), ``travel_rms_m``, ``tyre_load_rms``, and the same for the linear passive car
     (``c_sky = 0``) as a check of the linearisation against the environment's passive baseline.
     """
-    p = ElpasParams() if params is None else params
-    roads, dt = env_roads(seeds, steps, env_kwargs)
+    roads, dt, env_params = env_roads(seeds, steps, env_kwargs)
+    p = env_params if params is None else params
     t = dt * np.arange(roads.shape[1])
     F0 = (float(p.car.m_s) + float(p.car.m_u)) * GRAVITY
     out: dict[str, Any] = {"label": "ideal-force skyhook (upper reference; no actuator, no limits)"}

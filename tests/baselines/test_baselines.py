@@ -55,16 +55,16 @@ def test_vsaut2_decoupled_beats_zero_and_random() -> None:
 
 
 def test_quarter_car_baselines_against_zero_and_random() -> None:
-    """Both quarter-car baselines ride better than the random policy without violations; the passive
-    car *is* the zero policy up to the angle loop (zero current leaves gamma held by friction), and the
-    skyhook stays within a few per cent of it on the W_k comfort metric (see docs/baselines.md)."""
-    zero, rand, passive, sky = _compare(QC, [passive_factory(), skyhook_factory()], 500, QC_KW)
+    """The skyhook through the eLPAS cascade rides better than the zero and the random policy on the W_k
+    comfort metric, with less suspension travel and no violations.  The passive car *is* the zero policy
+    up to the angle loop (zero current leaves gamma held by friction), so it must match it and beat random."""
+    zero, rand, passive, sky = _compare(QC, [passive_factory(), skyhook_factory()], 1500, QC_KW)
     for row in (passive, sky):
         assert row["violations"].sum() == 0
         assert row["comfort_aw_rms"].mean() < rand["comfort_aw_rms"].mean()
         assert row["travel_rms_m"].mean() < 0.5 * rand["travel_rms_m"].mean()
-    assert passive["comfort_aw_rms"].mean() <= 1.01 * zero["comfort_aw_rms"].mean()
-    assert sky["comfort_aw_rms"].mean() <= 1.1 * passive["comfort_aw_rms"].mean()
+    assert abs(passive["comfort_aw_rms"].mean() / zero["comfort_aw_rms"].mean() - 1.0) < 0.01
+    assert sky["comfort_aw_rms"].mean() < 0.98 * zero["comfort_aw_rms"].mean()  # measured: about -4 % at 3 s
     assert sky["travel_rms_m"].mean() < passive["travel_rms_m"].mean()  # the skyhook calms the body mode
 
 
