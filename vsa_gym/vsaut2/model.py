@@ -45,9 +45,13 @@ Extensions
 An :class:`Extension` adds forces at named ports without copying the model:
 ``"belt_force"`` (N), ``"lever_torque"`` (N m, along phi), ``"pivot_force"`` (N, along q1),
 and the joint torques ``"motor1"``, ``"motor2"``, ``"frame"``, ``"output"`` (N m).  It may
-carry its own states.  Coulomb friction on a joint, backlash in the belt (as a
-correction to the linear belt force) and spring hysteresis all fit this shape; see
-:mod:`vsa_gym.vsaut2.extensions`.
+carry its own states.  Spring hysteresis (Dahl) fits this shape.
+
+Identified effects that are cheap and stateless -- Coulomb/Stribeck friction at the
+output and frame joints, backlash in the belt -- are parameters instead
+(``params.effects``, :class:`~vsa_gym.vsaut2.params.VsaUT2Effects`), so they run in the
+compiled core and ``gym.make(..., params=...)`` takes them; all zero (the default)
+is the nominal model exactly.  Their friction power is in the ``viscous`` channel.
 """
 
 from __future__ import annotations
@@ -322,7 +326,9 @@ class VsaUT2Model:
         e = 0.5 * (m1.L * x[..., 0] ** 2 + m2.L * x[..., 3] ** 2 + d.J1 * x[..., 2] ** 2 + d.J2 * x[..., 5] ** 2
                    + p.I_ad * x[..., 7] ** 2 + p.I_o * x[..., 9] ** 2)
         e = e + lever_forces(p.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot).energy
-        e = e + 0.5 * p.belt.C_belt * kin.delta**2
+        e = e + 0.5 * p.belt.C_belt * kin.delta**2 - 0.5 * p.belt.C_belt * (
+            _dead_zone_energy(kin.delta + p.effects.b_belt, p.effects.b_eps)
+            - _dead_zone_energy(kin.delta - p.effects.b_belt, p.effects.b_eps))
         zero = 0.0 * x[..., 0]
         e = e + two_sided_stop(x[..., 1], zero, -STOP_MARGIN_MOTOR, d.th1_max + STOP_MARGIN_MOTOR, p.K_s1, p.D_s1,
                                STOP_EPS_MOTOR).energy
@@ -352,6 +358,11 @@ class VsaUT2Model:
         return lever_forces(self.params.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot).tau_phi
 
 
+def _dead_zone_energy(x: np.ndarray, eps: float | np.ndarray) -> np.ndarray:
+    """Antiderivative of ``sqrt(x^2 + eps^2)``: the backlash term of the belt's stored energy."""
+    return 0.5 * (x * np.sqrt(x**2 + eps**2) + eps**2 * np.arcsinh(x / eps))
+
+
 @register_jitable
 def _rhs_point(
     p: VsaUT2Params, d: _Derived, i1: Any, th1: Any, w1: Any, i2: Any, th2: Any, w2: Any, q2: Any, q2d: Any,
@@ -375,9 +386,17 @@ def _rhs_point(
     q1_dot = jac * w1 / g1.n
     delta = d.r_ip * th2 / g2.n - p.belt.r_op * q2
 
+    # identified effects (VsaUT2Effects; all zero by default, then every term below is exactly 0.0):
+    # backlash as a smooth dead zone on the belt stretch, Coulomb + Stribeck friction at the joints
+    e = p.effects
+    delta_bl = delta - 0.5 * (np.sqrt((delta + e.b_belt) ** 2 + e.b_eps**2)
+                              - np.sqrt((delta - e.b_belt) ** 2 + e.b_eps**2))
+    tau_fo = (e.F_c_o + e.F_s_o * np.exp(-((rd / e.w_s_o) ** 2))) * np.tanh(rd / e.w_eps)
+    tau_fad = e.F_c_ad * np.tanh(q2d / e.w_eps)
+
     # elastic elements (+ extension ports)
     lev = lever_forces(p.lever, q1, r - q2, q1_dot, rd - q2d)
-    F_b = belt_force(p.belt, delta) + pt0
+    F_b = belt_force(p.belt, delta_bl) + pt0
     tau_phi = lev.tau_phi + pt1
     F_q1 = lev.F_q1 + pt2
 
@@ -401,16 +420,16 @@ def _rhs_point(
         w2,
         (shaft_torque(m2, i2, w2) - tau_in2 + pt4) / d.J2,
         q2d,
-        (p.belt.r_op * F_b - tau_phi - p.c_ad * q2d + stop2.force + pt5) / p.I_ad,
+        (p.belt.r_op * F_b - tau_phi - p.c_ad * q2d - tau_fad + stop2.force + pt5) / p.I_ad,
         rd,
-        (tau_phi - p.c_o * rd + tau_ext + pt6) / p.I_o,
+        (tau_phi - p.c_o * rd - tau_fo + tau_ext + pt6) / p.I_o,
     )
     pw = (
         u1 * i1,
         u2 * i2,
         tau_ext * rd,
         m1.R * i1**2 + m2.R * i2**2,
-        m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2,
+        m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2 + tau_fad * q2d + tau_fo * rd,
         p_gb1 + p_gb2,
         lev.p_diss + stop1.p_diss + stop2.p_diss,
     )

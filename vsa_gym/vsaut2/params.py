@@ -41,12 +41,43 @@ def gp42c_gearbox() -> GearboxParams:
 
 
 @dataclasses.dataclass(frozen=True)
+class VsaUT2Effects(ParameterSet):
+    """Model effects found by identification (:mod:`vsa_gym.identify`), as parameters of the compiled core.
+
+    Every default is zero = the effect is absent, and then the model is the nominal
+    one exactly (each term adds ``0.0``).  Friction is smooth Coulomb + Stribeck,
+    ``(F_c + F_s exp(-(w / w_s)^2)) tanh(w / w_eps)``, at a joint; backlash is a smooth
+    dead zone of half-width ``b_belt`` on the belt stretch.  Effects that are plain
+    parameter errors need no field here: inertia (``I_o``, ``I_ad``), viscous friction
+    (``c_o``, ``c_ad``), spring stiffness (``lever.k``), belt compliance
+    (``belt.C_belt``), gearbox efficiency (``frame_gearbox.eta_max``).  Spring
+    hysteresis stays an :class:`~vsa_gym.vsaut2.model.Extension` (it carries a state).
+    """
+
+    F_c_o: float = param(0.0, symbol="F_c,o", unit="N m", source="identification effect", tag="proposed",
+                         lower=0.0, doc="Coulomb friction at the output joint r (0: absent)")
+    F_s_o: float = param(0.0, symbol="F_s,o", unit="N m", source="identification effect", tag="proposed",
+                         lower=0.0, doc="Stribeck (static minus Coulomb) friction at the output joint (0: absent)")
+    w_s_o: float = param(0.05, symbol="w_s,o", unit="rad/s", source="identification effect", tag="proposed",
+                         lower=0.0, strict_lower=True, doc="Stribeck speed at the output joint")
+    F_c_ad: float = param(0.0, symbol="F_c,ad", unit="N m", source="identification effect", tag="proposed",
+                          lower=0.0, doc="Coulomb friction at the frame joint q2 (0: absent)")
+    b_belt: float = param(0.0, symbol="b_belt", unit="m", source="identification effect", tag="proposed",
+                          lower=0.0, doc="backlash half-width on the belt stretch (dead zone, 0: absent)")
+    w_eps: float = param(1e-2, symbol="w_eps", unit="rad/s", source="smoothing of sign(w)", tag="numerics",
+                         lower=0.0, strict_lower=True, doc="speed scale of the smooth Coulomb friction")
+    b_eps: float = param(2e-6, symbol="b_eps", unit="m", source="smoothing of the dead zone", tag="numerics",
+                         lower=0.0, strict_lower=True, doc="corner width of the smooth backlash dead zone")
+
+
+@dataclasses.dataclass(frozen=True)
 class VsaUT2Params(ParameterSet):
     """All parameters of the vsaUT-II model.
 
     Nested sets: ``pivot_motor`` (RE-20, Table II), ``pivot_gearbox`` (GP26B),
     ``frame_motor`` (RE-40), ``frame_gearbox`` (GP42C), ``pivot`` (planetary
-    mechanism), ``lever`` (springs, stops; ``l`` calibrated), ``belt``.
+    mechanism), ``lever`` (springs, stops; ``l`` calibrated), ``belt``, ``effects``
+    (identified effects, all absent by default: :class:`VsaUT2Effects`).
     """
 
     pivot_motor: DCMotorParams = dataclasses.field(default_factory=re20_motor)
@@ -56,6 +87,7 @@ class VsaUT2Params(ParameterSet):
     pivot: PivotParams = dataclasses.field(default_factory=PivotParams)
     lever: LeverParams = dataclasses.field(default_factory=LeverParams)
     belt: BeltParams = dataclasses.field(default_factory=BeltParams)
+    effects: VsaUT2Effects = dataclasses.field(default_factory=VsaUT2Effects)
 
     I_ad: float = param(1.2e-3, symbol="I_ad", unit="kg m^2", source="vsaUT-II Sec. III-F-1", tag="paper",
                         lower=0.0, strict_lower=True, doc="actuated device (frame) inertia about q2")
