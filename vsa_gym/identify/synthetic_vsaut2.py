@@ -13,7 +13,7 @@ Experiments (paper Sec. III):
   frame motor short-circuited, 4.5 s;
 * ``constant_current`` -- Fig. 9: 0.5 A on the frame motor for 0.5 s from q2 = -0.4 rad, then 0 A, 1 s;
 * ``torque_sweep`` -- Fig. 11 done dynamically: a 0.25 Hz sine of external torque at
-  q1 = 12 mm with the frame motor held by a PD voltage loop, 4 s.
+  q1 = 20 mm (K = 64 N m/rad) with the frame motor held by a PD voltage loop, 4 s.
 """
 
 from __future__ import annotations
@@ -91,9 +91,9 @@ def experiment_meta(experiment: str, params: VsaUT2Params | None = None) -> tupl
     elif experiment == "torque_sweep":
         dt, dur = 1e-3, 4.0
         meta = {**base, "experiment": "torque_deflection_sweep",
-                "description": "synthetic Fig. 11: 0.25 Hz external torque sine at q1 = 12 mm, frame motor held",
+                "description": "synthetic Fig. 11: 0.25 Hz external torque sine at q1 = 20 mm, frame motor held",
                 "inputs": {"tau": {"quantity": "external_torque", "unit": "N m", "sensor": "load cell x arm"}},
-                "outputs": {"r": r_out}, "initial_state": {"q1": 0.012, "r": 0.0, "q2": 0.0}}
+                "outputs": {"r": r_out}, "initial_state": {"q1": 0.020, "r": 0.0, "q2": 0.0}}
         meta["model"] = {**meta["model"], "frame_hold": {"kp": 50.0, "kd": 0.2}}
         t = np.round(np.arange(int(round(dur / dt))) * dt, 9)
         table = pd.DataFrame({"t": t, "tau": 3.0 * np.sin(2 * np.pi * 0.25 * t), "r": 0.0})
