@@ -1,0 +1,122 @@
+"""Seeded synthetic eLPAS rig records -- the paper's sine and step force tests -- with one hidden effect.
+
+The truth is replayed through the same closed loop the identifier uses
+(:class:`vsa_gym.identify.elpas_adapter.ElpasAdapter`: the paper's cascade, the 10 kHz
+current loop, the compiled core) with one effect of random magnitude (or none: a
+negative control), then the force sensor's white noise (5 N, the environments'
+default) is added; ``gamma`` is the simulated motor encoder (2000 pulses/rev at the motor).
+
+* ``"sine"``: ``F_ref = 2555 N + A sin(2 pi f t)`` with ``A`` in 500-700 N and ``f`` in 0.8-1.5 Hz,
+  the hydropulse moving alpha slowly (:func:`hydropulse_alpha`);
+* ``"step"``: a staircase of force levels in 1800-3300 N, one every 0.4 s, the same alpha motion.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from vsa_gym.identify.elpas_adapter import ElpasAdapter
+from vsa_gym.identify.record import FORMAT, Record, load_record
+
+#: realistic magnitude ranges per effect (sign drawn at random for the SIGNED ones)
+ELPAS_RANGES: dict[str, dict[str, tuple[float, float]]] = {
+    "coulomb_friction": {"F_c": (0.15, 0.35)},  # N m at the motor: +75 ... +175 % of Table 1 ("underestimated")
+    "stribeck_friction": {"F_s": (0.3, 0.6)},
+    "viscous_friction": {"s2": (0.006, 0.015)},
+    "spring_stiffness_drift": {"drift": (0.05, 0.12)},  # +-
+    "inertia_error": {"rel": (0.3, 0.6)},  # +-
+    "gearbox_efficiency": {"loss": (0.1, 0.25)},
+    "alpha_offset": {"offset": (0.01, 0.02)},  # +- rad
+    "sensor_gain": {"gain": (0.03, 0.06)},  # +-
+    "sensor_offset": {"offset": (30.0, 60.0)},  # +- N
+    "sensor_delay": {"delay": (0.004, 0.010)},
+}
+SIGNED = {"spring_stiffness_drift", "inertia_error", "alpha_offset", "sensor_gain", "sensor_offset"}
+FORCE_NOISE = 5.0  # N
+GAMMA_STEP = 2 * np.pi / 2000 / 59.0  # rad, motor encoder seen at the arm
+
+
+def elpas_meta(experiment: str) -> dict[str, Any]:
+    """Sidecar of a synthetic rig force test (nominal eLPAS, the paper's cascade at 1 kHz)."""
+    return {
+        "format": FORMAT, "device": "elpas", "experiment": experiment,
+        "description": "synthetic eLPAS hydropulse-rig force test "
+                       "(closed loop, the paper's cascade), alpha moved slowly",
+        "time": {"column": "t", "unit": "s"},
+        "inputs": {"F_ref": {"quantity": "force_reference", "unit": "N", "sensor": "controller reference"},
+                   "alpha": {"quantity": "alpha", "unit": "rad", "sensor": "hydropulse (imposed)"}},
+        "outputs": {"F": {"quantity": "force", "unit": "N", "sensor": "force sensor, 5 N noise"},
+                    "gamma": {"quantity": "gamma", "unit": "rad", "sensor": "motor encoder 2000 pulses/rev / N",
+                              "resolution": GAMMA_STEP, "quantizer": "floor"}},
+        "controller": {"type": "elpas_cascade"},
+        "replay": "closed_loop",
+        "model": {"params": {}},
+        "split": {"fit": [0.0, 0.6], "validation": [0.6, 0.8], "test": [0.8, 1.0]},
+    }
+
+
+def force_reference(kind: str, rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
+    if kind == "sine":
+        A, f = rng.uniform(500.0, 700.0), rng.uniform(0.8, 1.5)
+        return 2555.0 + A * np.sin(2 * np.pi * f * t)
+    if kind == "step":
+        n_lev = int(np.ceil(t[-1] / 0.4)) + 1
+        levels = rng.uniform(1800.0, 3300.0, n_lev)
+        return levels[np.minimum((t / 0.4).astype(int), n_lev - 1)]
+    raise ValueError(f"kind must be 'sine' or 'step', got {kind!r}")
+
+
+def hydropulse_alpha(rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
+    """The hydropulse moves the wishbone slowly: ``alpha = A sin(2 pi f t)``, A in 6-10 deg, f in 0.3-0.5 Hz
+    (at alpha = 0 the cone spring keeps its length whatever gamma, so C_a would be invisible)."""
+    A, f = np.deg2rad(rng.uniform(6.0, 10.0)), rng.uniform(0.3, 0.5)
+    return A * np.sin(2 * np.pi * f * t)
+
+
+def draw_effect(effect: str | None, rng: np.random.Generator) -> dict[str, float]:
+    if effect is None:
+        return {}
+    out = {}
+    for k, (lo, hi) in ELPAS_RANGES[effect].items():
+        v = float(rng.uniform(lo, hi))
+        if effect in SIGNED and rng.random() < 0.5:
+            v = -v
+        out[f"{effect}.{k}"] = v
+    return out
+
+
+def make_elpas_record(seed: int, effect: str | None = "random", kind: str = "sine", duration: float = 3.0,
+                      dt: float = 1e-3, truth: dict[str, float] | None = None) -> tuple[Record, dict[str, Any]]:
+    """A seeded rig record with one hidden effect (``"random"``: drawn from :data:`ELPAS_RANGES`; ``None``: none).
+
+    ``truth`` (optional) fixes the effect's parameters instead of drawing them (e.g. the same
+    device for the sine and the step test).
+    """
+    rng = np.random.default_rng(seed)
+    if effect == "random":
+        effect = str(rng.choice(list(ELPAS_RANGES)))
+    t = np.round(np.arange(int(round(duration / dt))) * dt, 9)
+    f_ref = force_reference(kind, rng, t)
+    meta = elpas_meta(f"synthetic_elpas_{kind}_seed{seed}_{effect or 'none'}")
+    alpha = hydropulse_alpha(rng, t)
+    table = pd.DataFrame({"t": t, "F_ref": f_ref, "alpha": alpha, "F": np.zeros_like(t),
+                          "gamma": np.zeros_like(t)})
+    drawn = draw_effect(effect, rng)
+    truth = drawn if truth is None else dict(truth)
+    rec = load_record("synthetic.csv", meta=meta, table=table)
+    ad = ElpasAdapter(rec)
+    ad.quantised_feedback = True  # the truth: the controller sees the real encoders
+    ad.gamma0 = float(ad._cascade().lookup(f_ref[:1])[0])  # at rest on the lookup of the first reference
+    y = ad.simulate({k: np.array([v]) for k, v in truth.items()}, 1)[:, 0, :]
+    table["F"] = y[:, 0] + FORCE_NOISE * rng.standard_normal(len(t))
+    gamma = y[:, 1] - ad.measurement[1].bias  # undo the adapter's model of the quantiser, then quantise
+    table["gamma"] = np.floor(gamma / GAMMA_STEP) * GAMMA_STEP
+    meta["initial_state"] = {"gamma": ad.gamma0}
+    rec = load_record("synthetic.csv", meta=meta, table=table)
+    return rec, {"effect": effect, "params": truth}
+
+
+__all__ = ["ELPAS_RANGES", "elpas_meta", "make_elpas_record"]
