@@ -6,12 +6,11 @@ import argparse
 from pathlib import Path
 
 import pytest
+import rl_zoo3.exp_manager as rl_zoo3_exp  # noqa: E402  (installed by the test extra)
 import yaml
 
 from agents.common import ALGO_NAMES, HYPERPARAMS_DIR, LinearSchedule, process_hyperparams, read_hyperparams
 from vsa_gym.envs import ENV_IDS
-
-rl_zoo3_exp = pytest.importorskip("rl_zoo3.exp_manager")
 
 
 def _zoo(algo: str, env_id: str, tmp_path: Path):

@@ -4,18 +4,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
+import ray  # noqa: F401  (the test extra installs it; a missing Ray must fail, not skip)
 
 from agents.sweep import finished_run, make_trials, run_sweep, run_trial
 from tests.agents.conftest import tiny
-
-pytest.importorskip("ray")
 
 FORCE = "vsa_gym/ELPAS-ForceTracking-v0"
 
 
 def test_two_trial_sweep_on_local_ray(tmp_path: Path) -> None:
-    import ray
 
     trials = make_trials([FORCE], ["ppo"], [0, 1], timesteps=256, log_folder=str(tmp_path), params=tiny("ppo"),
                          episodes=2, episode_steps=40, save_freq=0, eval_freq=0, tensorboard=False)

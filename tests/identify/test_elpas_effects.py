@@ -15,8 +15,6 @@ from vsa_gym.identify.elpas_adapter import ElpasAdapter
 from vsa_gym.identify.pipeline import Identifier
 from vsa_gym.identify.synthetic_elpas import make_elpas_record
 
-pytest.importorskip("baselines.elpas_cascade")
-
 REL_TOL = 0.10
 DURATION = 1.5
 
