@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.identify.recovery import assert_planted_effect_recovered
 from vsa_gym.identify.drive import DriveParams, simulate
 from vsa_gym.identify.pipeline import Identifier
 from vsa_gym.identify.synthetic import make_drive_record
@@ -25,16 +26,7 @@ MAIN = {"coulomb_friction": "F_c", "stribeck_friction": "F_s", "viscous_friction
 def _check(effect: str, seed: int) -> None:
     rec, truth = make_drive_record(seed, effect)
     res = Identifier().fit(rec).result_
-    names = [e["name"] for e in res.effects]
-    assert names == [effect], f"planted {effect} {truth['params']}, named {names}: {res.statements()}"
-    key = MAIN[effect]
-    got = res.effects[0]["parameters"][key]
-    want = truth["params"][f"{effect}.{key}"]
-    assert got == pytest.approx(want, rel=REL_TOL)
-    lo, hi = res.effects[0]["ci"][key]
-    assert lo < hi and not lo <= 0.0 <= hi
-    for out, before in res.metrics_before.items():
-        assert res.metrics_after[out]["rmse"] < 0.5 * before["rmse"]
+    assert_planted_effect_recovered(res, truth, effect, MAIN[effect], REL_TOL, 0.5)
     assert "95 % CI" in res.statements()[0]
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.identify.recovery import assert_planted_effect_recovered
 from vsa_gym.identify.adapters import make_adapter
 from vsa_gym.identify.pipeline import Identifier
 from vsa_gym.identify.synthetic_vsaut2 import make_vsaut2_record
@@ -28,16 +29,7 @@ MAIN = {"coulomb_friction": "F_c", "inertia_error": "rel", "spring_stiffness_dri
 def _check(experiment: str, effect: str, seed: int) -> None:
     rec, truth = make_vsaut2_record(seed, experiment, effect)
     res = Identifier().fit(rec).result_
-    names = [e["name"] for e in res.effects]
-    assert names == [effect], f"planted {effect} {truth['params']}, named {names}: {res.statements()}"
-    key = MAIN[effect]
-    got = res.effects[0]["parameters"][key]
-    want = truth["params"][f"{effect}.{key}"]
-    assert got == pytest.approx(want, rel=REL_TOL)
-    lo, hi = res.effects[0]["ci"][key]
-    assert lo < hi and not lo <= 0.0 <= hi
-    for out, before in res.metrics_before.items():
-        assert res.metrics_after[out]["rmse"] < 0.7 * before["rmse"], (out, before, res.metrics_after[out])
+    assert_planted_effect_recovered(res, truth, effect, MAIN[effect], REL_TOL, 0.7)
 
 
 @pytest.mark.parametrize("effect", ["coulomb_friction", "inertia_error", "spring_stiffness_drift"])
