@@ -36,15 +36,11 @@ class ForceTrackingTask(ElpasTask):
         self.ref.alloc(self.s, self.n)
         self.s["f_ref"] = np.zeros(self.n)
         lo, hi = force_range
-        self._channels = tuple(self._common_channels() + [
+        self._set_channels(self._common_channels() + [
             ObsChannel("force_ref", "N", float(lo), float(hi), "force reference"),
             ObsChannel("force_err", "N", float(lo) - 6000.0, float(hi), "force_ref - force"),
         ])
-        self._alloc(len(self._channels))
 
-    @property
-    def obs_channels(self) -> tuple[ObsChannel, ...]:
-        return self._channels
 
     def _reset_rows(self, rows: np.ndarray) -> None:
         self._sample_params(rows)

@@ -52,14 +52,10 @@ class QuarterCarTask(ElpasTask):
         self.s["a_w"] = np.zeros(self.n)  # W_k-weighted acceleration
         self.s["acc_meas"] = np.zeros(self.n)
         self.s["aw_sq_sum"] = np.zeros(self.n)
-        self._channels = tuple(self._common_channels() + [
+        self._set_channels(self._common_channels() + [
             ObsChannel("body_accel", "m/s^2", -50.0, 50.0, "sprung-mass accelerometer (vertical, gravity removed)"),
         ])
-        self._alloc(len(self._channels))
 
-    @property
-    def obs_channels(self) -> tuple[ObsChannel, ...]:
-        return self._channels
 
     def _new_road(self, i: int, offset: float) -> None:
         seed = int(self.rngs[i].integers(2**62))

@@ -117,9 +117,9 @@ class BatchedTask(ABC):
 
     # ------------------------------------------------------------------ spaces
     @property
-    @abstractmethod
     def obs_channels(self) -> tuple[ObsChannel, ...]:
-        """The observation layout (depends on the parameters, hence per instance)."""
+        """The observation layout (depends on the parameters, hence per instance; set by :meth:`_set_channels`)."""
+        return self._channels
 
     @property
     def obs_low(self) -> np.ndarray:
@@ -215,6 +215,11 @@ class BatchedTask(ABC):
             self.rngs[int(i)].bit_generator.state = st
 
     # ------------------------------------------------------------------ helpers for subclasses
+    def _set_channels(self, channels: list[ObsChannel]) -> None:
+        """Fix the observation layout and allocate the per-task arrays (call at the end of ``__init__``)."""
+        self._channels = tuple(channels)
+        self._alloc(len(self._channels))
+
     def _alloc(self, n_obs: int) -> None:
         """Allocate the bookkeeping arrays every task has (call at the end of ``__init__``)."""
         self.s["t"] = np.zeros(self.n)

@@ -2,19 +2,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from vsa_gym.envs.randomization import DomainRandomization
-from vsa_gym.envs.sensing import NoiseSpec
 from vsa_gym.envs.signals import SegmentReference
-from vsa_gym.envs.task import ControlMode, ObsChannel, RegenPolicy, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.envs.vsaut2_common import K_FLOOR, VsaUT2Task
 from vsa_gym.vsaut2.model import STATE
-from vsa_gym.vsaut2.params import VsaUT2Params
 
 
 class PositionStiffnessTask(VsaUT2Task):
@@ -29,12 +25,6 @@ class PositionStiffnessTask(VsaUT2Task):
         self,
         n: int,
         *,
-        control_dt: float | None = None,
-        control_mode: ControlMode = "voltage",
-        params: VsaUT2Params | None = None,
-        domain_randomization: DomainRandomization | Mapping[str, tuple[float, float]] | None = None,
-        sensor_noise: NoiseSpec = False,
-        regen: RegenPolicy = "clip",
         w_position: float = 1.0,
         w_stiffness: float = 1.0,
         w_energy: float = 1.0,
@@ -46,8 +36,8 @@ class PositionStiffnessTask(VsaUT2Task):
         disturbance_max: float = 0.5,
         **kwargs: Any,
     ) -> None:
-        super().__init__(n, control_dt=control_dt, control_mode=control_mode, params=params,
-                         domain_randomization=domain_randomization, sensor_noise=sensor_noise, regen=regen, **kwargs)
+        # control_dt, control_mode, params, domain_randomization, sensor_noise, regen, ...: see VsaUT2Task
+        super().__init__(n, **kwargs)
         self.w = {"position": float(w_position), "stiffness": float(w_stiffness), "energy": float(w_energy)}
         self.position_scale, self.log_stiffness_scale = float(position_scale), float(log_stiffness_scale)
         self.failure_penalty = float(failure_penalty)
@@ -66,7 +56,7 @@ class PositionStiffnessTask(VsaUT2Task):
         self.s["r_ref"] = np.zeros(self.n)
         self.s["k_ref"] = np.zeros(self.n)
         self.s["tau"] = np.zeros(self.n)
-        self._channels = tuple(self._common_channels() + [
+        self._set_channels(self._common_channels() + [
             ObsChannel("r_ref", "rad", -position_range, position_range, "output position reference"),
             ObsChannel("log_K_ref", "ln(N m/rad)", float(np.log(lo)), float(np.log(hi)),
                        "stiffness reference (natural log)"),
@@ -74,11 +64,7 @@ class PositionStiffnessTask(VsaUT2Task):
             ObsChannel("log_K_err", "ln(N m/rad)", float(np.log(lo) - np.log(1000.0)),
                        float(np.log(hi) - np.log(K_FLOOR)), "log_K_ref - log_K_hat"),
         ])
-        self._alloc(len(self._channels))
 
-    @property
-    def obs_channels(self) -> tuple[ObsChannel, ...]:
-        return self._channels
 
     def _reset_rows(self, rows: np.ndarray) -> None:
         self._sample_params(rows)

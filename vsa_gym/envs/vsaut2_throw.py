@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from vsa_gym.envs.randomization import DomainRandomization
-from vsa_gym.envs.sensing import NoiseSpec
-from vsa_gym.envs.task import ControlMode, ObsChannel, RegenPolicy, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.envs.vsaut2_common import K_FLOOR, VsaUT2Task
 from vsa_gym.vsaut2.model import STATE
-from vsa_gym.vsaut2.params import VsaUT2Params
 
 
 class ThrowTask(VsaUT2Task):
@@ -28,12 +24,6 @@ class ThrowTask(VsaUT2Task):
         self,
         n: int,
         *,
-        control_dt: float | None = None,
-        control_mode: ControlMode = "voltage",
-        params: VsaUT2Params | None = None,
-        domain_randomization: DomainRandomization | Mapping[str, tuple[float, float]] | None = None,
-        sensor_noise: NoiseSpec = False,
-        regen: RegenPolicy = "clip",
         release_angle: float = 0.3,
         energy_budget: float = 5.0,
         horizon_s: float = 1.0,
@@ -41,8 +31,8 @@ class ThrowTask(VsaUT2Task):
         failure_penalty: float = 1.0,
         **kwargs: Any,
     ) -> None:
-        super().__init__(n, control_dt=control_dt, control_mode=control_mode, params=params,
-                         domain_randomization=domain_randomization, sensor_noise=sensor_noise, regen=regen, **kwargs)
+        # control_dt, control_mode, params, domain_randomization, sensor_noise, regen, ...: see VsaUT2Task
+        super().__init__(n, **kwargs)
         if not 0.0 < release_angle < np.pi / 2:
             raise ValueError(f"release_angle must lie in (0, pi/2) rad, got {release_angle}")
         if not energy_budget > 0.0:
@@ -52,15 +42,11 @@ class ThrowTask(VsaUT2Task):
         self.release_angle, self.energy_budget = float(release_angle), float(energy_budget)
         self.horizon_s, self.q1_frac = float(horizon_s), float(initial_q1_fraction)
         self.failure_penalty = float(failure_penalty)
-        self._channels = tuple(self._common_channels() + [
+        self._set_channels(self._common_channels() + [
             ObsChannel("energy_left", "J", 0.0, self.energy_budget, "energy budget not yet drawn"),
             ObsChannel("time_left", "s", 0.0, self.horizon_s, "time until the throw window closes"),
         ])
-        self._alloc(len(self._channels))
 
-    @property
-    def obs_channels(self) -> tuple[ObsChannel, ...]:
-        return self._channels
 
     def _reset_rows(self, rows: np.ndarray) -> None:
         self._sample_params(rows)
