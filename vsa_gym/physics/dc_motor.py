@@ -78,17 +78,13 @@ def shaft_torque(p: DCMotorParams, i: np.ndarray, omega: np.ndarray) -> np.ndarr
     return p.k_t * i - p.b * omega
 
 
-def steady_state_current(p: DCMotorParams, u: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """Current the circuit settles to at fixed speed and voltage: ``(u - k_e omega) / R``."""
-    return (u - p.k_e * omega) / p.R
+def steady_state_speed(p: DCMotorParams, u: float, load_torque: float = 0.0) -> float:
+    """Speed at which ``k_t i = b omega + load_torque`` with ``i = (u - k_e omega)/R`` (rad/s).
 
-
-def no_load_speed(p: DCMotorParams, u: float, coulomb: float = 0.0) -> float:
-    """Speed at which ``k_t i = b omega + coulomb`` with ``i = (u - k_e omega)/R``.
-
-    Closed form of the motor's static no-load characteristic (rad/s).
+    The motor's static torque-speed characteristic at voltage ``u``; ``load_torque`` is what
+    the shaft must deliver (a friction or a gearbox's input torque).
     """
-    return float((p.k_t * u / p.R - coulomb) / (p.b + p.k_t * p.k_e / p.R))
+    return float((p.k_t * u / p.R - load_torque) / (p.b + p.k_t * p.k_e / p.R))
 
 
 def current_control_voltage(

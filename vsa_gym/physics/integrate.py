@@ -54,7 +54,6 @@ def reference_solution(
     n_steps: int,
     rtol: float = 1e-9,
     atol: float = 1e-12,
-    flat_rhs: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Stiff reference: ``scipy.integrate.solve_ivp`` (Radau) through the same inputs.
 
@@ -63,8 +62,6 @@ def reference_solution(
     boundary so the input discontinuities are resolved exactly.  ``x0`` has shape
     ``(n_states,)`` (one trajectory).  Returns ``(states, energy)`` with shapes
     ``(n_steps + 1, n_states)`` and ``(n_steps + 1, n_channels)`` (energy cumulative).
-    With ``flat_rhs`` the right-hand side is called with 1-D states (faster for
-    cores that index with ``x[..., k]``), otherwise with a batch of one.
     """
     x = np.asarray(x0, dtype=np.float64).copy()
     _, p0 = rhs_factory(0)(x[None, :])
@@ -78,9 +75,6 @@ def reference_solution(
         rhs = rhs_factory(k)
 
         def f(_t: float, y: np.ndarray, rhs: Rhs = rhs) -> np.ndarray:
-            if flat_rhs:
-                dx, p = rhs(y[:ns])
-                return np.concatenate([dx, p])
             dx, p = rhs(y[None, :ns])
             return np.concatenate([dx[0], p[0]])
 

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from vsa_gym.physics.dc_motor import steady_state_speed
 from vsa_gym.physics.gearbox import efficiency
 from vsa_gym.physics.sensors import AbsoluteEncoder
 from vsa_gym.vsaut2 import experiments as ex
@@ -34,8 +35,7 @@ def _speed_at_torque(model: VsaUT2Model, tau_output: float) -> tuple[float, floa
     belt = p.belt.z_out / p.belt.z_in
     tau_in = _forward_input_torque(model, tau_output / belt) if tau_output > 0 else \
         p.frame_gearbox.tau_max / (p.frame_gearbox.n * p.frame_gearbox.alpha * p.frame_gearbox.eta_max)
-    # u = R i + k_e w,  k_t i = b w + tau_in
-    w = (m.U_max - m.R * tau_in / m.k_t) / (m.k_e + m.R * m.b / m.k_t)
+    w = steady_state_speed(m, float(m.U_max), tau_in)
     i = (m.b * w + tau_in) / m.k_t
     return float(w / p.frame_ratio), float(i)
 

@@ -57,7 +57,7 @@ is the nominal model exactly.  Their friction power is in the ``viscous`` channe
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any, NamedTuple, Protocol
 
 import numba
@@ -72,7 +72,7 @@ from vsa_gym.physics.integrate import rk4
 from vsa_gym.physics.kernels import flatten_rows, row_reader
 from vsa_gym.physics.lever import lever_forces, spring_stiffness
 from vsa_gym.physics.parameters import as_batch
-from vsa_gym.physics.pivot import gear_ratio, pivot_jacobian, pivot_position, sun_inertia
+from vsa_gym.physics.pivot import pivot_jacobian, pivot_position, sun_inertia
 from vsa_gym.vsaut2.params import VsaUT2Params
 
 STATE = {name: i for i, name in enumerate(("i1", "th1", "w1", "i2", "th2", "w2", "q2", "q2_dot", "r", "r_dot"))}
@@ -524,14 +524,3 @@ PARALLEL_MIN_ROWS = 64
 _rhs_compiled = numba.njit(cache=True)(_rhs_rows_py)
 _rk4_compiled = numba.njit(cache=True)(_rk4_rows_py)
 _rk4_compiled_parallel = numba.njit(cache=True, parallel=True)(_rk4_rows_py)
-
-
-def pivot_gamma(params: VsaUT2Params) -> float | np.ndarray:
-    """Carrier/sun ratio of eq. (1) for these parameters."""
-    return gear_ratio(params.pivot)
-
-
-def stack_models(models: Sequence[VsaUT2Model]) -> VsaUT2Model:
-    """One batched model from ``n`` single ones (same extensions required)."""
-    exts = models[0].extensions
-    return VsaUT2Model(VsaUT2Params.stack([m.params for m in models]), exts)
