@@ -84,6 +84,15 @@ class DriveAdapter(Adapter):
     ``model``: ``{"params": {DriveParams fields}, "free": {name: [lower, upper]}, "motion":
     "translational" | "rotational"}``.  Free parameters are refitted in every model
     (nominal and extended), so an effect is credited only with what they cannot explain.
+
+    Two optional sidecar keys serve short records of several experiments (CED):
+
+    - ``segments``: rows where an independent experiment starts (first must be 0).  Each
+      segment is replayed from the initial state, and its sensor filter restarts there.
+    - ``initial_state.fit_window = n``: the state of each segment (load and motor speed,
+      transmission deflection, lagged drive force) is not known but fitted, per candidate
+      model, to the segment's first ``n`` measured samples (the state-initialisation window
+      of a benchmark; those samples must be excluded from scoring with ``skip_samples``).
     """
 
     def __init__(self, record: Record, replay: str | None = None) -> None:
@@ -96,6 +105,9 @@ class DriveAdapter(Adapter):
         for name, (lo, hi) in free.items():
             if name not in drive.PIDX:
                 raise ValueError(f"model.free: {name!r} is not a drive parameter ({drive.PNAMES})")
+            if name == "tau_e" and float(lo) <= 0.0:
+                raise ValueError("model.free: tau_e needs a lower bound > 0 (a vanishing lag makes the replay "
+                                 "stiff); fix tau_e = 0 in model.params for a drive without lag")
             v = float(getattr(self.params, name))
             self.base.append(ParamSpec(name, "", float(lo), float(hi), v, max(abs(v), 1e-9)))
         ctrl = record.controller
@@ -128,6 +140,15 @@ class DriveAdapter(Adapter):
         self.x0[0] = self.x0[2] = pos0 or 0.0
         self.x0[1] = self.x0[3] = float(init.get("velocity", 0.0))
         self.x0[4] = float(self.params.k_u) * float(self.u[0])
+        starts = [int(a) for a in record.meta.get("segments", [0])]
+        if not starts or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= T:
+            raise ValueError(f"segments must be increasing row indices starting at 0 and below {T}, got {starts}")
+        self.segments = list(zip(starts, [*starts[1:], T], strict=True))
+        self.init_window = int(init.get("fit_window", 0))
+        if self.init_window and self.ctrl is not None:
+            raise ValueError("initial_state.fit_window is implemented for open-loop replay only")
+        if self.init_window and self.init_window >= min(b - a for a, b in self.segments):
+            raise ValueError(f"initial_state.fit_window = {self.init_window} leaves no sample of a segment to score")
         self._scales()
         self.effects = self._effects()
 
@@ -168,7 +189,7 @@ class DriveAdapter(Adapter):
             k_typ = 4 * np.pi**2 * 400.0 * m / 4
             eff["transmission_compliance"] = EffectSpec("transmission_compliance", "in the transmission", (
                 ParamSpec("compliance", f"{lin}/{rot}", 0.0, 1.0 / (k_typ / 25), 0.0, 1.0 / k_typ),))
-        else:
+        elif "k_c" not in free:
             eff["spring_stiffness_drift"] = EffectSpec("spring_stiffness_drift", "in the transmission spring",
                                                        (ParamSpec("drift", "-", -0.5, 0.5, 0.0, 0.05),))
         eff["gearbox_efficiency"] = EffectSpec("gearbox_efficiency", "in the transmission",
@@ -212,12 +233,100 @@ class DriveAdapter(Adapter):
         P[fh > 0, I["sigma_h"]] = fh[fh > 0] / (0.01 * self.x_ref) if hasattr(self, "x_ref") else 1.0
         return P
 
-    def simulate_physical(self, theta: Theta, n: int) -> np.ndarray:
-        P = self.param_matrix(theta, n)
-        y = drive.simulate(P, self.u, self.dt, x0=self.x0, fext=self.fext, ref=self.ref, ff=self.ff,
+    def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray) -> np.ndarray:
+        """Physical observables ``(b - a, n, n_outputs)`` of rows ``P`` over rows ``a:b`` from states ``x0``."""
+        y = drive.simulate(P, self.u[a:b], self.dt, x0=x0, fext=self.fext[a:b], ref=self.ref[a:b], ff=self.ff[a:b],
                            controller=self.ctrl,
                            n_sub=drive.substeps(P, self.dt, vmax=getattr(self, "v_ref", 1.0) * 2))
         return y[:, :, self.obs]
+
+    def _measure(self, theta: Theta, x: np.ndarray, a: int, b: int) -> np.ndarray:
+        """The sensors (measurement model and sensor effects) applied to physical outputs ``x`` of rows ``a:b``."""
+        out = np.empty_like(x)
+        for j, mm in enumerate(self.measurement):
+            if j == 0:
+                out[:, :, j] = mm.apply(self.t[a:b], x[:, :, j], theta.get("sensor_gain.gain"),
+                                        theta.get("sensor_offset.offset"), theta.get("sensor_delay.delay"))
+            else:
+                out[:, :, j] = mm.apply(self.t[a:b], x[:, :, j])
+        return out
+
+    def _start_states(self, P: np.ndarray, a: int) -> np.ndarray:
+        """Initial state of every row at segment start ``a``: the sidecar's, with the drive force at ``k_u u_a``."""
+        x0 = np.repeat(self.x0[None, :], P.shape[0], axis=0)
+        x0[:, 4] = P[:, drive.PIDX["k_u"]] * self.u[a]
+        return x0
+
+    def _fit_start_state(self, theta: Theta, P: np.ndarray, a: int, x0: np.ndarray) -> np.ndarray:
+        """Each row's state at segment start ``a`` fitted to the first ``init_window`` measured samples."""
+        out = x0.copy()
+        n = P.shape[0]
+        for i in range(n):
+            th = {k: np.broadcast_to(np.asarray(v, dtype=np.float64), (n,))[i:i + 1] for k, v in theta.items()}
+            out[i] = self._fit_row_state(th, P[i:i + 1], a, x0[i])
+        return out
+
+    def _fit_row_state(self, theta: Theta, Pi: np.ndarray, a: int, x0: np.ndarray) -> np.ndarray:
+        """Least-squares start state of one model ``Pi`` (1, n_params) over samples ``a .. a + init_window``.
+
+        Unknowns: load speed ``v_l``; with a two-mass transmission also the motor speed ``v_m`` and the
+        deflection ``x_m - x_l``; with a lag ``tau_e > 0`` also the drive force ``F``.  A rectifying sensor
+        does not see the sign, so both signs of the speed are tried and the better fit is kept.
+        """
+        from scipy.optimize import least_squares
+
+        I = drive.PIDX
+        w = self.init_window
+        meas = self.measured[a:a + w]
+        sd = np.std(self.measured, axis=0) + 1e-12
+        two = bool(Pi[0, I["k_c"]] > 0 or Pi[0, I["backlash"]] > 0)
+        k = Pi[0, I["k_c"]] if Pi[0, I["k_c"]] > 0 else float(drive.contact_stiffness(Pi)[0])
+        lag = bool(Pi[0, I["tau_e"]] > 0)
+        scale = np.array([self.v_ref, self.v_ref, self.F_ref / k, self.F_ref])
+        use = np.array([True, two, two, lag])
+
+        def state(z: np.ndarray) -> np.ndarray:
+            full = np.zeros(4)
+            full[use] = z
+            full *= scale
+            s = x0.copy()
+            s[1] = full[0]
+            s[3] = full[1] if two else full[0]
+            s[2] = s[0] + full[2]
+            if lag:
+                s[4] = full[3]
+            return s
+
+        def res(z: np.ndarray) -> np.ndarray:
+            y = self._measure(theta, self._rollout(Pi, a, a + w, state(z)[None, :]), a, a + w)[:, 0, :]
+            return ((y - meas) / sd).ravel()
+
+        best = None
+        for sign in (1.0, -1.0):
+            z0 = np.zeros(4)
+            z0[:2] = sign * max(float(np.abs(meas[0, 0])), 1e-3) / self.v_ref
+            z0[3] = Pi[0, I["k_u"]] * self.u[a] / self.F_ref
+            sol = least_squares(res, z0[use], method="trf", max_nfev=200)
+            if best is None or sol.cost < best.cost:
+                best = sol
+        assert best is not None
+        return state(best.x)
+
+    def simulate(self, theta: Theta, n: int) -> np.ndarray:
+        """Measured outputs ``(T, n, n_outputs)``; each segment is replayed and measured on its own."""
+        P = self.param_matrix(theta, n)
+        out = np.empty((len(self.t), n, len(self.outputs)))
+        for a, b in self.segments:
+            x0 = self._start_states(P, a)
+            if self.init_window:
+                x0 = self._fit_start_state(theta, P, a, x0)
+            out[a:b] = self._measure(theta, self._rollout(P, a, b, x0), a, b)
+        return out
+
+    def simulate_physical(self, theta: Theta, n: int) -> np.ndarray:
+        """Physical outputs ``(T, n, n_outputs)`` before the sensors (segments from the sidecar's initial state)."""
+        P = self.param_matrix(theta, n)
+        return np.concatenate([self._rollout(P, a, b, self._start_states(P, a)) for a, b in self.segments])
 
     def describe_model(self, theta: Mapping[str, float]) -> dict[str, Any]:
         """The identified drive as a :class:`DriveParams` dict (for rebuilding the simulator)."""

@@ -226,6 +226,13 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
     return y
 
 
+def contact_stiffness(P: np.ndarray) -> np.ndarray:
+    """Stiffness (N/m) of the backlash contact of each row of ``P`` when no compliance ``k_c`` is given:
+    ``k_contact``, or by default ``4 pi^2 30^2 m``."""
+    P = np.atleast_2d(P)
+    return np.where(P[:, PIDX["k_contact"]] > 0, P[:, PIDX["k_contact"]], 4 * np.pi**2 * 900 * P[:, PIDX["m"]])
+
+
 def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
     """RK4 substeps that keep ``h |lambda| < 1.5`` for the fastest mode of every row."""
     m = P[:, PIDX["m"]]

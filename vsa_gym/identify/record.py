@@ -79,9 +79,13 @@ SHIPPED: dict[str, tuple[str, str | None]] = {
     "emps": ("emps/emps_train.csv", "emps/emps_test.csv"),
     "emps-train": ("emps/emps_train.csv", None),
     "emps-test": ("emps/emps_test.csv", None),
-    "ced-1": ("ced/ced_unif_1.csv", None),
-    "ced-2": ("ced/ced_unif_2.csv", None),
-    "ced": ("ced/ced_unif_1.csv", None),
+    # CED: fit on both official training parts (two segments), score once on test 2 (u12) or test 1 (u11)
+    "ced": ("ced/ced_train.csv", "ced/ced_test_2.csv"),
+    "ced-2": ("ced/ced_train.csv", "ced/ced_test_2.csv"),
+    "ced-1": ("ced/ced_train.csv", "ced/ced_test_1.csv"),
+    "ced-train": ("ced/ced_train.csv", None),
+    "ced-test-1": ("ced/ced_test_1.csv", None),
+    "ced-test-2": ("ced/ced_test_2.csv", None),
 }
 
 
