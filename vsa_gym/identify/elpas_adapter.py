@@ -259,5 +259,28 @@ class ElpasAdapter(Adapter):
         out["alpha_offset"] = float(theta.get("alpha_offset.offset", 0.0))
         return out
 
+    def identified_params(self, theta: Mapping[str, float]) -> ElpasParams:
+        """The identified model as an :class:`ElpasParams` (``gym.make(ID, params=...)`` takes it).
+
+        ``theta``: fitted values by ``"effect.param"`` key (e.g. ``result.final.theta()``).  The
+        parameter-type effects change ``friction.F_c``/``F_s``/``s2``, ``cone.C_a``, ``drive.J_r`` and
+        ``motor.k_t`` exactly as in the replay (:meth:`param_tuple`).  Left out, because they are not
+        parameters of the plant: ``alpha_offset`` (an alignment of the rig) and the force sensor's
+        gain/offset/delay.  Note: with ``gearbox_efficiency`` the environments' current loop computes its
+        torque error with the returned (reduced) ``k_t``, the replay with the nominal one.
+        """
+        t = self.param_tuple({k: np.array([float(v)]) for k, v in theta.items()}, 1)
+        p = self.nominal
+
+        def val(group: str, field: str) -> float:
+            return float(getattr(getattr(t, group), field)[0])
+
+        return p.replace(
+            friction=dataclasses.replace(p.friction, F_c=val("friction", "F_c"), F_s=val("friction", "F_s"),
+                                         s2=val("friction", "s2")),
+            cone=dataclasses.replace(p.cone, C_a=val("cone", "C_a")),
+            drive=dataclasses.replace(p.drive, J_r=val("drive", "J_r")),
+            motor=dataclasses.replace(p.motor, k_t=val("motor", "k_t")))
+
 
 __all__ = ["ElpasAdapter"]
