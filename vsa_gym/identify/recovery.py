@@ -1,0 +1,139 @@
+"""Recovery of planted effects on the device generators: one case, and the tables over seeds.
+
+One *case* is ``(device, experiment, effect, seed)``: a seeded synthetic record with that effect
+of random realistic magnitude (``effect=None``: a negative control) is identified with the
+configuration the tests use, and the outcome records what was named and how far the main
+parameter landed from the truth.  :func:`summarise` turns the outcomes of one catalogue entry
+into the row of a recovery table.  Used by ``benchmarks/identify_recovery_devices.py`` and the
+device tests (``tests/identify/test_{vsaut2,elpas}_effects.py``).
+
+* vsaUT-II (:mod:`vsa_gym.identify.synthetic_vsaut2`): the catalogue is ``RANGES[experiment]``,
+  fitted with ``Identifier()`` on the record's own fit/validation parts, scored on its test part.
+* eLPAS (:mod:`vsa_gym.identify.synthetic_elpas`): the catalogue is ``ELPAS_RANGES``; the fit
+  record is a sine or step force test of :data:`ELPAS_DURATION` s, the held-out record the
+  other kind of test of the same device (same planted parameters, another seed),
+  ``Identifier(n_fit=2, max_nfev=15)``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from vsa_gym.identify.pipeline import IdentificationResult, Identifier
+
+#: the main (reported, tested) parameter of each catalogue effect
+MAIN: dict[str, str] = {
+    "coulomb_friction": "F_c", "stribeck_friction": "F_s", "viscous_friction": "b", "backlash": "width",
+    "transmission_compliance": "compliance", "gearbox_efficiency": "loss", "hysteresis": "F_h",
+    "inertia_error": "rel", "force_offset": "F_0", "sensor_gain": "gain", "sensor_offset": "offset",
+    "sensor_delay": "delay", "spring_stiffness_drift": "drift", "alpha_offset": "offset",
+}
+#: eLPAS names some parameters after its own fields
+ELPAS_MAIN: dict[str, str] = {**MAIN, "viscous_friction": "s2"}
+
+ELPAS_DURATION = 1.5  # s, each eLPAS force test (fit and held-out)
+ELPAS_IDENTIFIER: dict[str, int] = {"n_fit": 2, "max_nfev": 15}
+DEVICES = ("vsaut2", "elpas")
+
+
+def main_key(device: str, effect: str) -> str:
+    """The main parameter of ``effect`` on ``device``."""
+    return (ELPAS_MAIN if device == "elpas" else MAIN)[effect]
+
+
+def catalogue(device: str) -> list[tuple[str, str]]:
+    """``(experiment, effect)`` pairs the device's generator can plant (its ``RANGES``)."""
+    if device == "vsaut2":
+        from vsa_gym.identify.synthetic_vsaut2 import RANGES
+
+        return [(exp, eff) for exp, effs in RANGES.items() for eff in effs]
+    if device == "elpas":
+        from vsa_gym.identify.synthetic_elpas import ELPAS_RANGES
+
+        return [("sine", eff) for eff in ELPAS_RANGES]
+    raise ValueError(f"device must be one of {DEVICES}, got {device!r}")
+
+
+def negative_experiments(device: str) -> list[str]:
+    """The experiments that get negative controls."""
+    if device == "vsaut2":
+        from vsa_gym.identify.synthetic_vsaut2 import EXPERIMENTS
+
+        return list(EXPERIMENTS)
+    return ["sine"]
+
+
+def identify_case(device: str, experiment: str, effect: str | None,
+                  seed: int) -> tuple[IdentificationResult, dict[str, Any]]:
+    """Identify one seeded synthetic record with ``effect`` planted; returns the result and the truth."""
+    if device == "vsaut2":
+        from vsa_gym.identify.synthetic_vsaut2 import make_vsaut2_record
+
+        rec, truth = make_vsaut2_record(seed, experiment, effect)
+        return Identifier().fit(rec).result_, truth
+    if device == "elpas":
+        from vsa_gym.identify.synthetic_elpas import make_elpas_record
+
+        held_out = {"sine": "step", "step": "sine"}[experiment]
+        rec, truth = make_elpas_record(seed, effect, experiment, duration=ELPAS_DURATION)
+        test, _ = make_elpas_record(seed + 1000, effect, held_out, duration=ELPAS_DURATION, truth=truth["params"])
+        return Identifier(**ELPAS_IDENTIFIER).fit(rec, test).result_, truth
+    raise ValueError(f"device must be one of {DEVICES}, got {device!r}")
+
+
+def run_case(device: str, experiment: str, effect: str | None, seed: int) -> dict[str, Any]:
+    """One case as a JSON-able outcome: names accepted, planted and fitted main parameter, error, held-out RMSEs."""
+    t0 = time.perf_counter()
+    res, truth = identify_case(device, experiment, effect, seed)
+    names = [e["name"] for e in res.effects]
+    out: dict[str, Any] = {"device": device, "experiment": experiment, "effect": effect, "seed": seed,
+                           "named": names, "truth": truth["params"],
+                           "rmse_before": {k: v["rmse"] for k, v in res.metrics_before.items()},
+                           "rmse_after": {k: v["rmse"] for k, v in res.metrics_after.items()},
+                           "fitted": None, "rel_error": None}
+    if effect is not None and effect in names:
+        k = main_key(device, effect)
+        got = float(res.effects[names.index(effect)]["parameters"][k])
+        want = float(truth["params"][f"{effect}.{k}"])
+        out["fitted"], out["rel_error"] = got, abs(got - want) / abs(want)
+    out["seconds"] = time.perf_counter() - t0
+    return out
+
+
+def summarise(outcomes: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Row of a recovery table from the outcomes of one catalogue entry (or of its negative controls).
+
+    Recovered: exactly the planted effect is named.  Parameter error: ``|fitted - true| / |true|`` of
+    the main parameter over the recovered seeds.  ``extra``: runs that named the planted effect plus
+    another one.  For negative controls, ``false_positive_rate`` is the share of runs naming anything.
+    """
+    n = len(outcomes)
+    effect = outcomes[0]["effect"] if outcomes else None
+    row: dict[str, Any] = {"seeds": n, "seconds_median": float(np.median([o["seconds"] for o in outcomes]))
+                           if outcomes else None}
+    if effect is None:
+        fp = [o for o in outcomes if o["named"]]
+        row["false_positive_rate"] = len(fp) / n if n else None
+        row["false_positives"] = sorted({name for o in fp for name in o["named"]})
+        return row
+    hits = [o for o in outcomes if o["named"] == [effect]]
+    errs = [o["rel_error"] for o in hits]
+    row["recovery_rate"] = len(hits) / n if n else None
+    row["median_param_error"] = float(np.median(errs)) if errs else None
+    row["max_param_error"] = float(np.max(errs)) if errs else None
+    row["extra"] = sum(1 for o in outcomes if effect in o["named"] and len(o["named"]) > 1)
+    wrong: dict[str, int] = {}
+    for o in outcomes:
+        if effect not in o["named"]:
+            key = "+".join(o["named"]) or "none"
+            wrong[key] = wrong.get(key, 0) + 1
+    row["missed_as"] = wrong
+    return row
+
+
+__all__ = ["DEVICES", "ELPAS_DURATION", "ELPAS_IDENTIFIER", "MAIN", "catalogue", "identify_case", "main_key",
+           "negative_experiments", "run_case", "summarise"]
