@@ -12,8 +12,12 @@ Experiments (paper Sec. III):
 * ``free_oscillation`` -- Fig. 10: pivot at K = 0.7 N m/rad, output released from 0.2 rad,
   frame motor short-circuited, 4.5 s;
 * ``constant_current`` -- Fig. 9: 0.5 A on the frame motor for 0.5 s from q2 = -0.4 rad, then 0 A, 1 s;
-* ``torque_sweep`` -- Fig. 11 done dynamically: a 0.25 Hz sine of external torque at
-  q1 = 20 mm (K = 64 N m/rad) with the frame motor held by a PD voltage loop, 4 s.
+* ``torque_sweep`` -- Fig. 11 done dynamically: one period of a 0.25 Hz sine of external torque of
+  :data:`SWEEP_TORQUE` N m at the low stiffness :data:`SWEEP_K` (K = 1 N m/rad at phi = 0) with the
+  frame motor held by a PD voltage loop, 4 s.  The deflection reaches about 0.46 rad, where the
+  lever's torque ``K/2 sin(2 phi)`` is far from linear: a spring-stiffness drift scales the torque
+  axis of that curve, an AS5043 gain error its deflection axis, so the two are told apart by
+  the curve's shape (in the linear range they are look-alikes, both scale the deflection).
 """
 
 from __future__ import annotations
@@ -49,10 +53,15 @@ RANGES: dict[str, dict[str, dict[str, tuple[float, float]]]] = {
     },
     "torque_sweep": {
         "spring_stiffness_drift": {"drift": (0.06, 0.15)},
-        "coulomb_friction": {"F_c": (0.05, 0.15)},
+        "coulomb_friction": {"F_c": (5e-3, 2e-2)},  # at the output, as in the free oscillation
+        "sensor_gain": {"gain": (0.04, 0.1)},  # the AS5043's look-alike of the drift in the linear range
     },
 }
-SIGNED = {"inertia_error", "spring_stiffness_drift", "sensor_offset", "force_offset"}
+SIGNED = {"inertia_error", "spring_stiffness_drift", "sensor_offset", "force_offset", "sensor_gain"}
+
+#: the torque-deflection sweep: stiffness setting (N m/rad at phi = 0) and torque amplitude (N m)
+SWEEP_K = 1.0
+SWEEP_TORQUE = 0.4
 
 #: white noise before quantisation, in counts of each encoder
 NOISE_COUNTS = 0.3
@@ -90,13 +99,15 @@ def experiment_meta(experiment: str, params: VsaUT2Params | None = None) -> tupl
         table = pd.DataFrame({"t": t, "i2ref": np.where(t < 0.5, 0.5, 0.0), "q2": 0.0})
     elif experiment == "torque_sweep":
         dt, dur = 1e-3, 4.0
+        q1 = float(pivot_for_stiffness(p.lever, SWEEP_K))
         meta = {**base, "experiment": "torque_deflection_sweep",
-                "description": "synthetic Fig. 11: 0.25 Hz external torque sine at q1 = 20 mm, frame motor held",
+                "description": f"synthetic Fig. 11: 0.25 Hz external torque sine of {SWEEP_TORQUE} N m at "
+                               f"K = {SWEEP_K} N m/rad (deflection into the lever's nonlinear range), frame motor held",
                 "inputs": {"tau": {"quantity": "external_torque", "unit": "N m", "sensor": "load cell x arm"}},
-                "outputs": {"r": r_out}, "initial_state": {"q1": 0.020, "r": 0.0, "q2": 0.0}}
+                "outputs": {"r": r_out}, "initial_state": {"q1": q1, "r": 0.0, "q2": 0.0}}
         meta["model"] = {**meta["model"], "frame_hold": {"kp": 50.0, "kd": 0.2}}
         t = np.round(np.arange(int(round(dur / dt))) * dt, 9)
-        table = pd.DataFrame({"t": t, "tau": 3.0 * np.sin(2 * np.pi * 0.25 * t), "r": 0.0})
+        table = pd.DataFrame({"t": t, "tau": SWEEP_TORQUE * np.sin(2 * np.pi * 0.25 * t), "r": 0.0})
     else:
         raise ValueError(f"unknown experiment {experiment!r}; one of {EXPERIMENTS}")
     return meta, table
@@ -145,4 +156,4 @@ def make_vsaut2_record(seed: int, experiment: str = "free_oscillation", effect: 
     return rec, {"effect": effect, "params": truth}
 
 
-__all__ = ["EXPERIMENTS", "RANGES", "draw_effect", "experiment_meta", "make_vsaut2_record"]
+__all__ = ["EXPERIMENTS", "RANGES", "SWEEP_K", "SWEEP_TORQUE", "draw_effect", "experiment_meta", "make_vsaut2_record"]
