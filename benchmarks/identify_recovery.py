@@ -63,11 +63,12 @@ def main() -> None:
     lines = ["| effect | recovery rate | median param. error | max param. error | false positives |",
              "|---|---|---|---|---|"]
     for k, r in rows.items():
-        def f(v, pct=True):
-            return "–" if v is None else (f"{100 * v:.1f} %" if pct else str(v))
+        def f(v, pct=True, sci=False):
+            return "–" if v is None else (f"{v:.1e}" if sci else f"{100 * v:.0f} %" if pct else str(v))
         fp = (f(r["false_positive_rate"]) if r["false_positive_rate"] is not None
               else f(r["named_with_extra_effect"], False))
-        lines.append(f"| {k} | {f(r['recovery_rate'])} | {f(r['median_param_error'])} | {f(r['max_param_error'])} | "
+        lines.append(f"| {k} | {f(r['recovery_rate'])} | {f(r['median_param_error'], sci=True)} | "
+                     f"{f(r['max_param_error'], sci=True)} | "
                      f"{fp} |")
     (out / "recovery.md").write_text("\n".join(lines) + "\n")
     print("\n".join(lines))

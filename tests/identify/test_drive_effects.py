@@ -42,9 +42,7 @@ def test_lookalike_coulomb_vs_offset(effect):
     _check(effect, seed=3)
 
 
-@pytest.mark.parametrize("effect", ["coulomb_friction", pytest.param("backlash", marks=pytest.mark.xfail(
-    strict=True, reason="known: the backlash contact stiffness (30 Hz) trades off against transmission_compliance; "
-    "backlash is named first but compliance is accepted as a second effect and the width is biased"))])
+@pytest.mark.parametrize("effect", ["coulomb_friction", "backlash"])
 def test_lookalike_coulomb_vs_backlash(effect):
     _check(effect, seed=4)
 
@@ -86,3 +84,21 @@ def test_drive_friction_matches_the_physics_component():
         x0 = np.array([0.0, v, 0.0, v, 0.0, 0.0])
         y = simulate(P, np.full(200, f), 1e-3, x0=x0)
         assert y[-1, 0, 1] == pytest.approx(v, rel=1e-9)
+
+
+def test_backlash_contact_adds_only_the_gap():
+    """Inside the gap no force; beyond it the fixed, well damped contact (not a free parameter) acts on d - g."""
+    from vsa_gym.identify.drive import E_CORNER, ZETA_CONTACT, _tforce, contact_stiffness
+
+    gap = 4e-3
+    P = DriveParams(m=2.0, backlash=gap).vector(1)[0]
+    k, g = float(contact_stiffness(P)[0]), 0.5 * gap
+    m_r = 0.25 * 2.0
+    assert abs(_tforce(P, 0.5 * g, 0.0)) < E_CORNER**2 * k * g  # free play
+    assert _tforce(P, -(g + 1e-3), 0.0) == pytest.approx(-k * 1e-3, rel=E_CORNER)  # contact, either side
+    c = _tforce(P, 2 * g, 1.0) - _tforce(P, 2 * g, 0.0)
+    assert c == pytest.approx(2 * ZETA_CONTACT * np.sqrt(k * m_r), rel=E_CORNER**2)
+    assert _tforce(P, 0.5 * g, 1.0) - _tforce(P, 0.5 * g, 0.0) < 0.01 * c  # no damping force in the gap
+    # with a compliance the transmission uses k_c, c_c (the gap is unchanged)
+    Pc = DriveParams(m=2.0, backlash=gap, k_c=5e3, c_c=3.0).vector(1)[0]
+    assert _tforce(Pc, g + 1e-3, 0.0) == pytest.approx(5.0, rel=E_CORNER)

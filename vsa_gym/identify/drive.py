@@ -12,10 +12,18 @@ A DC motor in voltage mode with negligible inductance reduces to this form:
 
 Rigid transmission (``k_c = 0`` and ``backlash = 0``): ``m x'' = eta(F_m) - F_f(v) - F_0 - h + F_ext``.
 With a compliant transmission or backlash the inertia splits into a motor side
-``frac_m m`` and a load side ``(1 - frac_m) m`` joined by the transmission force
-``F_t = k dz(x_m - x_l) + c_c (v_m - v_l) dz'`` with a smooth dead zone ``dz`` of
-total width ``backlash`` (``k = k_c``, or the contact stiffness ``k_contact`` when only
-backlash is present).  Load friction (:mod:`vsa_gym.physics.friction` forms)::
+``frac_m m`` and a load side ``(1 - frac_m) m`` joined by the transmission force::
+
+    F_t = k dz(d) + c (v_m - v_l) dz'(d),   d = x_m - x_l,   g = backlash / 2
+    dz(d) = d - (sqrt((d + g)^2 + e^2) - sqrt((d - g)^2 + e^2)) / 2,   e = 0.05 g
+
+``dz`` is a dead zone of total width ``backlash`` whose corners are rounded over ``e``
+(``dz = d`` without backlash).  With a compliance (``k_c > 0``): ``k = k_c``, ``c = c_c``.
+With backlash alone the teeth meet through a stiff, well damped contact that is not a
+free parameter, so that backlash adds only the gap: ``k = k_contact`` (default: a
+contact mode of :data:`F_CONTACT` = 50 Hz on the reduced mass ``m_r = frac_m (1 - frac_m) m``,
+``k = (2 pi 50 Hz)^2 m_r``) and ``c = 2 zeta m_r omega`` with :data:`ZETA_CONTACT` = 0.7.
+Load friction (:mod:`vsa_gym.physics.friction` forms)::
 
     F_f(v) = (F_c + F_s exp(-(v/v_s)^2)) tanh(v / v_eps) + b v
 
@@ -47,6 +55,9 @@ PIDX = {n: i for i, n in enumerate(PNAMES)}
 #: observables of the roll-out, in column order
 OBS: tuple[str, ...] = ("position", "velocity", "motor_position", "force", "controller_output")
 N_STATE = 6  # x_l, v_l, x_m, v_m, F (lagged drive force), h (hysteresis)
+F_CONTACT = 50.0  # Hz: default backlash contact mode on the reduced mass
+ZETA_CONTACT = 0.7  # damping ratio of the backlash contact
+E_CORNER = 0.05  # rounding of the dead-zone corners, as a share of the half gap g
 
 
 @dataclasses.dataclass(frozen=True)
@@ -86,7 +97,8 @@ class DriveParams(ParameterSet):
     sigma_h: float = param(1e5, symbol="sigma_h", unit="N/m", source="effect", tag="proposed", lower=0.0,
                            strict_lower=True, doc="Dahl hysteresis initial stiffness")
     k_contact: float = param(0.0, symbol="k_contact", unit="N/m", source="numerics", tag="numerics", lower=0.0,
-                             doc="contact stiffness when backlash is present and k_c = 0 (0: 4 pi^2 30^2 m)")
+                             doc="contact stiffness when backlash is present and k_c = 0 (0: a 50 Hz mode on the "
+                                 "reduced mass)")
 
     @classmethod
     def from_motor(cls, motor: DCMotorParams, ratio: float, m_load: float, b_load: float = 0.0,
@@ -106,10 +118,36 @@ class DriveParams(ParameterSet):
 
 
 @numba.njit(cache=True)
+def _contact(P: np.ndarray) -> tuple[float, float]:
+    """Stiffness and damping of the transmission: ``(k_c, c_c)`` if compliant, else the backlash contact's."""
+    if P[9] > 0.0:
+        return P[9], P[10]
+    m_r = P[11] * (1.0 - P[11]) * P[0]
+    k = P[16] if P[16] > 0.0 else (2.0 * np.pi * F_CONTACT) ** 2 * m_r
+    c = P[10] if P[10] > 0.0 else 2.0 * ZETA_CONTACT * np.sqrt(k * m_r)
+    return k, c
+
+
+@numba.njit(cache=True)
+def _tforce(P: np.ndarray, d: float, dv: float) -> float:
+    """Transmission force ``k dz(d) + c dv dz'(d)`` (N) at deflection ``d`` and deflection rate ``dv``."""
+    k, c = _contact(P)
+    g = 0.5 * P[12]
+    if g > 0.0:
+        e2 = (E_CORNER * g) ** 2
+        r1 = np.sqrt((d + g) ** 2 + e2)
+        r2 = np.sqrt((d - g) ** 2 + e2)
+        dz = d - 0.5 * (r1 - r2)
+        ddz = 1.0 - 0.5 * ((d + g) / r1 - (d - g) / r2)
+        return k * dz + c * dv * ddz
+    return k * d + c * dv
+
+
+@numba.njit(cache=True)
 def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, out: np.ndarray) -> None:
     m, b, k_u, tau_e = P[0], P[1], P[2], P[3]
     F_c, F_s, v_s, v_eps, F_0 = P[4], P[5], P[6], P[7], P[8]
-    k_c, c_c, frac, bl, eta, F_h, sig, k_ct = P[9], P[10], P[11], P[12], P[13], P[14], P[15], P[16]
+    frac, eta, F_h, sig = P[11], P[13], P[14], P[15]
     xl, vl, xm, vm, F, h = s[0], s[1], s[2], s[3], s[4], s[5]
     if tau_e > 0.0:
         Fm = F
@@ -130,17 +168,7 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     if two_mass:
         mm = frac * m
         ml = (1.0 - frac) * m
-        k = k_c if k_c > 0.0 else (k_ct if k_ct > 0.0 else 4.0 * np.pi**2 * 900.0 * m)
-        d = xm - xl
-        g = 0.5 * bl
-        if g > 0.0:
-            th = np.tanh(d / g)
-            dz = d - g * th
-            ddz = th * th
-        else:
-            dz = d
-            ddz = 1.0
-        Ft = k * dz + c_c * (vm - vl) * ddz
+        Ft = _tforce(P, xm - xl, vm - vl)
         out[0] = vl
         out[1] = (Ft - load) / ml
         out[2] = vm
@@ -157,13 +185,7 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
 def _transmitted(P: np.ndarray, s: np.ndarray, u: float, two_mass: bool) -> float:
     """Force the drive delivers to the load (N), for the ``force`` observable."""
     if two_mass:
-        k = P[9] if P[9] > 0.0 else (P[16] if P[16] > 0.0 else 4.0 * np.pi**2 * 900.0 * P[0])
-        d = s[2] - s[0]
-        g = 0.5 * P[12]
-        if g > 0.0:
-            th = np.tanh(d / g)
-            return k * (d - g * th) + P[10] * (s[3] - s[1]) * th * th
-        return k * d + P[10] * (s[3] - s[1])
+        return _tforce(P, s[2] - s[0], s[3] - s[1])
     return s[4] if P[3] > 0.0 else P[2] * u
 
 
@@ -228,9 +250,10 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
 
 def contact_stiffness(P: np.ndarray) -> np.ndarray:
     """Stiffness (N/m) of the backlash contact of each row of ``P`` when no compliance ``k_c`` is given:
-    ``k_contact``, or by default ``4 pi^2 30^2 m``."""
+    ``k_contact``, or by default ``(2 pi F_CONTACT)^2 m_r`` with ``m_r = frac_m (1 - frac_m) m``."""
     P = np.atleast_2d(P)
-    return np.where(P[:, PIDX["k_contact"]] > 0, P[:, PIDX["k_contact"]], 4 * np.pi**2 * 900 * P[:, PIDX["m"]])
+    m_r = P[:, PIDX["frac_m"]] * (1 - P[:, PIDX["frac_m"]]) * P[:, PIDX["m"]]
+    return np.where(P[:, PIDX["k_contact"]] > 0, P[:, PIDX["k_contact"]], (2 * np.pi * F_CONTACT) ** 2 * m_r)
 
 
 def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
@@ -242,10 +265,12 @@ def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
              np.where(P[:, PIDX["tau_e"]] > 0, 1.0 / np.maximum(P[:, PIDX["tau_e"]], 1e-12), 0.0),
              P[:, PIDX["sigma_h"]] * vmax / np.maximum(P[:, PIDX["F_h"]], 1e-12) * (P[:, PIDX["F_h"]] > 0)]
     two = (P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0)
-    k = np.where(P[:, PIDX["k_c"]] > 0, P[:, PIDX["k_c"]],
-                 np.where(P[:, PIDX["k_contact"]] > 0, P[:, PIDX["k_contact"]], 4 * np.pi**2 * 900 * m))
+    comp = P[:, PIDX["k_c"]] > 0
+    k = np.where(comp, P[:, PIDX["k_c"]], contact_stiffness(P))
+    m_r = frac * (1 - frac) * m
+    c = np.where(comp | (P[:, PIDX["c_c"]] > 0), P[:, PIDX["c_c"]], 2 * ZETA_CONTACT * np.sqrt(k * m_r))
     mmin = np.minimum(frac, 1 - frac) * m
-    rates.append(np.where(two, np.sqrt(k / mmin) + P[:, PIDX["c_c"]] / mmin, 0.0))
+    rates.append(np.where(two, np.sqrt(k / mmin) + c / mmin, 0.0))
     lam = float(np.max(np.concatenate([np.atleast_1d(r) for r in rates])))
     return int(min(max(base, np.ceil(lam * dt / 1.5)), 400))
 
