@@ -62,6 +62,19 @@ def test_constant_current_negative_control_reports_none():
     _check_none("constant_current", 200)
 
 
+def test_torque_sweep_reaches_the_lever_nonlinear_range_below_the_stops():
+    """The sweep's design: the deflection goes where ``sin(2 phi) / (2 phi)`` is well below 1 (the lever is
+    nonlinear), but the spring end stays short of its travel stop ``x_max``."""
+    from vsa_gym.physics.lever import lever_ratio
+
+    rec, _ = make_vsaut2_record(2000, "torque_sweep", None)
+    p = VsaUT2Params()
+    phi = np.max(np.abs(rec.output("r")))
+    assert phi > 0.4 and np.sin(2 * phi) / (2 * phi) < 0.85
+    q1 = rec.meta["initial_state"]["q1"]
+    assert p.lever.l * lever_ratio(p.lever, q1) * np.sin(phi) < p.lever.x_max
+
+
 def test_torque_sweep_spring_drift_is_not_taken_for_a_sensor_gain():
     """The look-alike pair of the sweep: a drift of the spring rate and a gain error of the AS5043 both scale the
     deflection where the lever is linear.  The sweep takes the lever into its nonlinear range (``K/2 sin 2 phi``),
