@@ -1,7 +1,7 @@
 """CED (coupled electric drives, CE8) under the official split: identify on both training parts, score once on
 test 1 (u11) and test 2 (u12), next to the published figures.
 
-    python benchmarks/identify_ced.py [--out out/identify_ced] [--max-nfev 25]  # identify + score (shipped records)
+    python benchmarks/identify_ced.py [--out out/identify_ced] [--max-nfev 25] [--candidates a,b]  # identify + score
     python benchmarks/identify_ced.py --convert ../shared/data/real/ced    # (re)build vsa_gym/data/ced/
 
 The shipped records (``vsa_gym/data/ced/``) are made by :func:`convert` from ``ced_unif.csv``:
@@ -115,6 +115,7 @@ def main() -> None:
     ap.add_argument("--convert", default=None, help="data folder holding ced_unif.csv: rebuild the shipped records")
     ap.add_argument("--out", default="out/identify_ced")
     ap.add_argument("--max-nfev", type=int, default=25, help="evaluations per fit (the CLI's default is 25)")
+    ap.add_argument("--candidates", default=None, help="comma-separated effects to consider (default: the catalogue)")
     args = ap.parse_args()
     if args.convert:
         for p in convert(args.convert):
@@ -122,7 +123,9 @@ def main() -> None:
         return
     t0 = time.perf_counter()
     train = load_record(SHIPPED_DIR / "ced" / "ced_train.csv")
-    res = Identifier(max_nfev=args.max_nfev).fit(train, load_record(SHIPPED_DIR / "ced" / "ced_test_2.csv")).result_
+    cands = args.candidates.split(",") if args.candidates else None
+    test2 = load_record(SHIPPED_DIR / "ced" / "ced_test_2.csv")
+    res = Identifier(max_nfev=args.max_nfev, candidates=cands).fit(train, test2).result_
     scores = {i: test_rms(res, SHIPPED_DIR / "ced" / f"ced_test_{i}.csv") for i in (1, 2)}
     statements = res.statements()
     theta = res.final.theta()
@@ -130,12 +133,13 @@ def main() -> None:
         statements.insert(1, f"Equivalent dead band of the drive voltage: F_c / k_u = "
                              f"{theta['coulomb_friction.F_c'] / theta['base.k_u']:.3f} V")
     frac = theta["base.frac_m"]
+    statements.append(f"Candidates: {', '.join(str(c) for c in cands) if cands else 'the whole catalogue'}")
     statements.append(f"Refitted drive and belt: tau_e = {theta['base.tau_e']:.3f} s, "
                       f"b / m = {theta['base.b']:.2f} 1/s, "
                       f"belt mode sqrt(k_c / m_r) = {np.sqrt(theta['base.k_c'] / (frac * (1 - frac))):.1f} rad/s, "
                       f"damping ratio {theta['base.c_c'] / (2 * np.sqrt(theta['base.k_c'] * frac * (1 - frac))):.3f}")
     print("\n".join(statements))
-    print(res.candidates_frame().drop(columns=["values"]).to_string(index=False))
+    print(res.candidates_frame().to_string(index=False))
     lines = ["| model | test 1 (u11) | test 2 (u12) |", "|---|---|---|",
              f"| nominal: lagged drive + compliant belt, sensor abs(v) + 12 Hz low-pass (this workbench) | "
              f"{scores[1]['nominal']:.3f} | {scores[2]['nominal']:.3f} |",
