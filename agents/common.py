@@ -112,7 +112,7 @@ def read_hyperparams(algo: str, env_id: str, path: str | os.PathLike[str] | None
     return hp
 
 
-_UNSUPPORTED = ("env_wrapper", "vec_env_wrapper", "callback", "frame_stack", "monitor_kwargs")
+_UNSUPPORTED = ("env_wrapper", "callback", "frame_stack", "monitor_kwargs")
 
 
 def _py(expr: str) -> Any:
@@ -127,8 +127,9 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
     """rl-zoo3's pre-processing of a hyperparameter entry, split into what our trainer needs.
 
     Returns ``{"model": kwargs of the algorithm, "n_envs", "n_timesteps", "normalize" (None or
-    VecNormalize kwargs), "env_kwargs"}``.  Keys that rl-zoo3 supports but we do not (wrappers,
-    callbacks, frame stacking) raise ``ValueError``.
+    VecNormalize kwargs), "env_kwargs", "vec_env_wrapper"}`` (the last as written in the YAML, see
+    :func:`wrap_vec_env`).  Keys that rl-zoo3 supports but we do not (gym wrappers, callbacks,
+    frame stacking) raise ``ValueError``.
     """
     hp = dict(raw)
     bad = [k for k in _UNSUPPORTED if k in hp]
@@ -144,6 +145,7 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
             hp[key] = LinearSchedule(float(value))
     if isinstance(hp.get("train_freq"), list):
         hp["train_freq"] = tuple(hp["train_freq"])
+    out["vec_env_wrapper"] = hp.pop("vec_env_wrapper", None)
     norm = hp.pop("normalize", False)
     if isinstance(norm, str):
         norm = _py(norm)
@@ -178,13 +180,33 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
 
 
 # ---------------------------------------------------------------------------------------------- environments
+def wrap_vec_env(venv: Any, spec: Any) -> Any:
+    """Apply an rl-zoo3 ``vec_env_wrapper`` entry: a class path, ``{path: kwargs}``, or a list of these."""
+    import importlib
+
+    if spec is None:
+        return venv
+    for item in spec if isinstance(spec, list) else [spec]:
+        if isinstance(item, Mapping):
+            if len(item) != 1:
+                raise ValueError(f"vec_env_wrapper: one class per entry, got {item!r}")
+            path, kwargs = next(iter(item.items()))
+        else:
+            path, kwargs = item, {}
+        module, _, name = str(path).rpartition(".")
+        venv = getattr(importlib.import_module(module), name)(venv, **dict(kwargs or {}))
+    return venv
+
+
 def make_train_env(env_id: str, n_envs: int, seed: int, env_kwargs: Mapping[str, Any] | None = None,
                    normalize: Mapping[str, Any] | None = None, monitor_file: str | None = None,
-                   vecnormalize_path: str | os.PathLike[str] | None = None, training: bool = True) -> Any:
-    """Native batched vector env -> SB3 ``VecEnv`` -> ``VecMonitor`` -> ``VecNormalize``.
+                   vecnormalize_path: str | os.PathLike[str] | None = None, training: bool = True,
+                   vec_env_wrapper: Any = None) -> Any:
+    """Native batched vector env -> ``vec_env_wrapper`` (e.g. residual) -> ``VecMonitor`` -> ``VecNormalize``.
 
     ``vecnormalize_path`` loads saved statistics (resume / evaluation); ``training=False``
-    freezes them and switches reward normalisation off (evaluation environments).
+    freezes them and switches reward normalisation off (evaluation environments).  As in rl-zoo3,
+    the ``vec_env_wrapper`` sees the raw (unnormalised) environment.
     """
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
@@ -192,6 +214,7 @@ def make_train_env(env_id: str, n_envs: int, seed: int, env_kwargs: Mapping[str,
     from vsa_gym.envs.sb3 import make_sb3_vec_env
 
     venv: Any = make_sb3_vec_env(env_id, n_envs=n_envs, seed=seed, **dict(env_kwargs or {}))
+    venv = wrap_vec_env(venv, vec_env_wrapper)
     venv = VecMonitor(venv, filename=monitor_file)
     if vecnormalize_path is not None:
         venv = VecNormalize.load(str(vecnormalize_path), venv)

@@ -87,11 +87,25 @@ def training_env_kwargs(model_path: str | os.PathLike[str], env_id: str) -> dict
     return {}
 
 
+def training_vec_env_wrapper(model_path: str | os.PathLike[str], env_id: str) -> Any:
+    """``vec_env_wrapper`` of the run's ``config.yml`` (``None`` when absent or outside a run directory)."""
+    p = Path(model_path)
+    for cand in (p.parent / env_name(env_id) / "config.yml", p.parent / p.stem / "config.yml"):
+        if cand.exists():
+            return (yaml.safe_load(cand.read_text()) or {}).get("vec_env_wrapper")
+    return None
+
+
 def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: int = 10,
                    seed_base: int = METRIC_SEED_BASE, algo: str | None = None,
                    vecnormalize: str | os.PathLike[str] | None = None, episode_steps: int | None = None,
                    env_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
-    """The baselines' metrics of a trained agent on ``episodes`` held-out seeds."""
+    """The baselines' metrics of a trained agent on ``episodes`` held-out seeds.
+
+    A residual agent (``vec_env_wrapper`` of :mod:`agents.residual` in its ``config.yml``) is
+    evaluated as the composition baseline + scaled correction it was trained as.
+    """
+    from agents.residual import residual_config, residual_policy
     from baselines.metrics import evaluate_policy
 
     policy = load_agent(model_path, algo, vecnormalize)
@@ -99,11 +113,13 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     kw.update(env_kwargs or {})
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
     seeds = [seed_base + k for k in range(int(episodes))]
-    result = evaluate_policy(env_id, lambda env: policy, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
+    residual = residual_config(training_vec_env_wrapper(model_path, env_id))
+    factory = residual_policy(policy, residual) if residual is not None else (lambda env: policy)
+    result = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
     result = dict(result)
     result["agent"] = {"model": str(model_path), "algo": algo or algo_of_model(model_path),
                        "vecnormalize": str(vecnormalize or vecnormalize_for(model_path)), "seeds": seeds,
-                       "env_kwargs": kw}
+                       "env_kwargs": kw, "residual": residual}
     return result
 
 

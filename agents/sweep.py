@@ -55,7 +55,8 @@ def run_trial(trial: Mapping[str, Any]) -> dict[str, Any]:
     reused = info is not None
     if info is None:
         info = train(t["env_id"], t["algo"], t.get("timesteps"), t["seed"], t["log_folder"],
-                     params=t.get("params") or None, save_freq=t.get("save_freq", 50_000),
+                     hyperparams=t.get("hyperparams"), params=t.get("params") or None,
+                     save_freq=t.get("save_freq", 50_000),
                      eval_freq=t.get("eval_freq", 25_000), eval_episodes=t.get("eval_episodes", 4),
                      n_eval_envs=t.get("n_eval_envs", 4), tensorboard=t.get("tensorboard", True),
                      progress_bar=False, num_threads=1)
@@ -118,6 +119,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--timesteps", type=int, default=None, help="per trial (default: the YAML's n_timesteps)")
     ap.add_argument("--log-folder", "-f", default="logs/sweep")
     ap.add_argument("--params", nargs="*", default=[], help="hyperparameter overrides key:value for every trial")
+    ap.add_argument("--hyperparams", default=None, help="rl-zoo3 YAML (default agents/hyperparams/ALGO.yml)")
     ap.add_argument("--episodes", type=int, default=10, help="metric episodes per trial (0: no evaluation)")
     ap.add_argument("--save-freq", type=int, default=50_000)
     ap.add_argument("--eval-freq", type=int, default=25_000)
@@ -129,7 +131,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from agents.train import _parse_params
 
     trials = make_trials(a.envs, a.algos, a.seeds, timesteps=a.timesteps, log_folder=str(a.log_folder),
-                         params=_parse_params(a.params), episodes=a.episodes, save_freq=a.save_freq,
+                         params=_parse_params(a.params), hyperparams=a.hyperparams, episodes=a.episodes,
+                         save_freq=a.save_freq,
                          eval_freq=a.eval_freq, retrain=a.retrain)
     results = run_sweep(trials, a.address, a.num_cpus)
     if a.json:

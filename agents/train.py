@@ -215,11 +215,12 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
         env_seed = int(np.random.SeedSequence([seed, start_steps]).generate_state(1)[0] >> 1)
     monitor = str(save_path / (f"resume_{start_steps}" if resume else "0"))
     vn_path = save_path / f"rl_model_vecnormalize_{start_steps}_steps.pkl" if (resume and normalized) else None
-    env = make_train_env(env_id, n_envs, env_seed, hp["env_kwargs"], hp["normalize"], monitor, vn_path)
+    env = make_train_env(env_id, n_envs, env_seed, hp["env_kwargs"], hp["normalize"], monitor, vn_path,
+                         vec_env_wrapper=hp["vec_env_wrapper"])
     eval_env = None
     if eval_freq > 0:
         eval_env = make_train_env(env_id, n_eval_envs, EVAL_SEED_BASE, hp["env_kwargs"], hp["normalize"],
-                                  training=False)
+                                  training=False, vec_env_wrapper=hp["vec_env_wrapper"])
     tb = str(save_path / "tb") if tensorboard else None
     if resume:
         model = cls.load(str(ckpt), env=env, device=device, tensorboard_log=tb)
@@ -291,6 +292,20 @@ def _n_actions(env_id: str, env_kwargs: Any) -> int:
     return n
 
 
+def with_residual(params: Mapping[str, Any], spec: str) -> dict[str, Any]:
+    """``params`` plus the overrides of ``--residual BASELINE[:SCALE]`` (env_kwargs are merged, not replaced)."""
+    from agents.residual import residual_params
+
+    name, _, scale = spec.partition(":")
+    extra = residual_params(name, float(scale) if scale else 0.3)
+    out = dict(params)
+    kw = extra.pop("env_kwargs", None)
+    if kw:
+        out["env_kwargs"] = {**dict(out.get("env_kwargs") or {}), **kw}
+    out.update(extra)
+    return out
+
+
 def _parse_params(items: Sequence[str]) -> dict[str, Any]:
     out = {}
     for it in items:
@@ -313,6 +328,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="continue the newest run of (env, algo, seed), or the given run directory")
     ap.add_argument("--hyperparams", "-conf", default=None, help="rl-zoo3 YAML (default agents/hyperparams/ALGO.yml)")
     ap.add_argument("--params", nargs="*", default=[], help="overrides, key:value (YAML values)")
+    ap.add_argument("--residual", default=None, metavar="BASELINE[:SCALE]",
+                    help="residual RL over a baseline (cascade, skyhook, passive, decoupled), correction scale "
+                         "default 0.3: see agents/residual.py")
     ap.add_argument("--save-freq", type=int, default=50_000, help="checkpoint period in timesteps (<= 0: off)")
     ap.add_argument("--eval-freq", type=int, default=25_000, help="evaluation period in timesteps (<= 0: off)")
     ap.add_argument("--eval-episodes", type=int, default=4)
@@ -323,7 +341,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--verbose", type=int, default=0)
     a = ap.parse_args(argv)
-    info = train(a.env, a.algo, a.timesteps, a.seed, a.log_folder, a.resume, a.hyperparams, _parse_params(a.params),
+    params = _parse_params(a.params)
+    if a.residual:
+        params = with_residual(params, a.residual)
+    info = train(a.env, a.algo, a.timesteps, a.seed, a.log_folder, a.resume, a.hyperparams, params,
                  a.save_freq, a.eval_freq, a.eval_episodes, a.n_eval_envs, not a.no_tensorboard,
                  not a.no_progress_bar, a.num_threads, a.device, a.verbose)
     print(f"{info['status']}: {info['num_timesteps']} timesteps, {info['cpu_s'] / 60:.2f} CPU min -> "

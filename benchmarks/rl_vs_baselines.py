@@ -28,6 +28,7 @@ import argparse
 import re
 import sys
 import threading
+import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -145,12 +146,12 @@ def pareto_plot(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict
         ym, ylo, yhi = interval(y)
         ax.errorbar(em, ym, xerr=[[em - elo], [ehi - em]], yerr=[[ym - ylo], [yhi - ym]], fmt=next(markers),
                     ms=8, capsize=3, label=f"{name} (mean over the episodes)")
-    for name, rows in agents.items():
+    for (name, rows), color in zip(agents.items(), ("tab:red", "tab:purple", "tab:brown"), strict=False):
         e, y = [r["metrics"]["energy_J"] for r in rows], [r["metrics"][key] for r in rows]
-        ax.scatter(e, y, s=18, alpha=0.6, color="tab:red")
+        ax.scatter(e, y, s=18, alpha=0.6, color=color)
         em, elo, ehi = interval(e)
         ym, ylo, yhi = interval(y)
-        ax.errorbar(em, ym, xerr=[[em - elo], [ehi - em]], yerr=[[ym - ylo], [yhi - ym]], fmt="o", color="tab:red",
+        ax.errorbar(em, ym, xerr=[[em - elo], [ehi - em]], yerr=[[ym - ylo], [yhi - ym]], fmt="o", color=color,
                     ms=9, capsize=3, label=f"{name} (mean, 95% CI over seeds; dots: seeds)")
     ax.set_xlabel("electrical energy per episode (J)")
     ax.set_ylabel(key + (" (higher is better)" if key == "return" else " (lower is better)"))
@@ -174,12 +175,42 @@ def update_doc(doc: Path, text: str) -> None:
     doc.write_text(new)
 
 
+RESIDUAL_HYPERPARAMS = REPO / "agents" / "hyperparams" / "ppo_residual.yml"
+
+
+def residual_envs() -> dict[str, str]:
+    """``env_id -> baseline`` of the residual entries in ``agents/hyperparams/ppo_residual.yml``."""
+    import yaml
+
+    from agents.residual import residual_config
+
+    table_ = yaml.safe_load(RESIDUAL_HYPERPARAMS.read_text())
+    return {env_id: str((residual_config(hp.get("vec_env_wrapper")) or {}).get("baseline"))
+            for env_id, hp in table_.items()}
+
+
+def _per_env(items: Sequence[str], envs: Sequence[str]) -> dict[str, int]:
+    """``SHORT_ID=N`` (e.g. ``VsaUT2-Throw-v0=32768``) -> ``{env_id: N}``."""
+    out: dict[str, int] = {}
+    for it in items:
+        short, _, n = it.partition("=")
+        match = [e for e in envs if e.split("/")[-1] == short or e == short]
+        if not match or not n:
+            raise SystemExit(f"--timesteps-for takes ENV=N with ENV one of {list(envs)}, got {it!r}")
+        out[match[0]] = int(n)
+    return out
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.rl_vs_baselines", description=__doc__.split("\n\n")[0])
     ap.add_argument("--envs", nargs="+", default=list(ENVS))
     ap.add_argument("--algo", default="ppo")
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     ap.add_argument("--timesteps", type=int, default=30_000, help="training timesteps per agent")
+    ap.add_argument("--timesteps-for", nargs="*", default=[], metavar="ENV=N",
+                    help="per-environment timesteps, e.g. VsaUT2-Throw-v0=32768 (default: --timesteps)")
+    ap.add_argument("--residual", action="store_true",
+                    help="also train residual agents (agents/hyperparams/ppo_residual.yml) where an entry exists")
     ap.add_argument("--episodes", type=int, default=5, help="evaluation episodes (held-out seeds)")
     ap.add_argument("--log-folder", default="logs/rl_vs_baselines")
     ap.add_argument("--docs", default=str(REPO / "docs"))
@@ -197,34 +228,57 @@ def main(argv: Sequence[str] | None = None) -> int:
     results_path = docs / "agents_results.json"
     previous = read_json(results_path, {}) or {}
     cache: dict[str, Any] = previous.get("baseline_cache", {}) if a.reuse_baselines else {}
-    trials = make_trials(a.envs, [a.algo], a.seeds, timesteps=a.timesteps, log_folder=a.log_folder,
-                         episodes=a.episodes, save_freq=50_000, eval_freq=a.eval_freq)
+    steps_for = {e: a.timesteps for e in a.envs} | _per_env(a.timesteps_for, a.envs)
+    res_envs = residual_envs() if a.residual else {}
+    trials: list[dict[str, Any]] = []
+    for env_id in a.envs:  # residual trials first: they are the slow ones (baseline in the loop)
+        if env_id in res_envs:
+            trials += make_trials([env_id], [a.algo], a.seeds, timesteps=steps_for[env_id],
+                                  log_folder=str(Path(a.log_folder) / "residual"),
+                                  hyperparams=str(RESIDUAL_HYPERPARAMS),
+                                  episodes=a.episodes, save_freq=50_000, eval_freq=a.eval_freq, variant="residual")
+    for env_id in a.envs:
+        trials += make_trials([env_id], [a.algo], a.seeds, timesteps=steps_for[env_id], log_folder=a.log_folder,
+                              episodes=a.episodes, save_freq=50_000, eval_freq=a.eval_freq, variant="pure")
     base_all: dict[str, dict[str, list[dict[str, Any]]]] = {}
 
     def baselines_job() -> None:  # numpy only: runs in the driver while Ray trains the agents
         for env_id in a.envs:
             base_all[env_id] = evaluate_baselines(env_id, a.episodes, cache)
 
+    wall0 = time.perf_counter()
     worker = threading.Thread(target=baselines_job)
     worker.start()
     swept = run_sweep(trials, a.address, a.num_cpus)
     worker.join()
+    wall_min = (time.perf_counter() - wall0) / 60.0
     command = "python -m benchmarks.rl_vs_baselines " + " ".join(argv if argv is not None else sys.argv[1:])
-    sections = [f"Made by `{command}` ({a.algo.upper()}, {a.timesteps} timesteps per agent, seeds {a.seeds}; "
-                f"{a.episodes} held-out evaluation episodes of the full length per policy).\n"]
-    record: dict[str, Any] = {"command": command, "algo": a.algo, "timesteps": a.timesteps, "seeds": a.seeds,
-                              "episodes": a.episodes, "envs": {}, "baseline_cache": cache}
+    train_cpu = sum(r["train_info"]["cpu_s"] for r in swept) / 60.0
+    budget = ", ".join(f"{e.split('/')[-1]} {steps_for[e]}" for e in a.envs)
+    sections = [f"Made by `{command}` ({a.algo.upper()}, timesteps per agent: {budget}; seeds {a.seeds}; "
+                f"{a.episodes} held-out evaluation episodes of the full length per policy). Training CPU time of "
+                f"all agents: {train_cpu:.1f} min (sum over the trials, including reused runs); wall time of the "
+                f"command: {wall_min:.1f} min.\n"]
+    record: dict[str, Any] = {"command": command, "algo": a.algo, "timesteps": steps_for, "seeds": a.seeds,
+                              "episodes": a.episodes, "train_cpu_min": train_cpu, "wall_min": wall_min,
+                              "envs": {}, "baseline_cache": cache}
     for env_id in a.envs:
-        rows = [{"seed": r["train_info"]["seed"], "cpu_min": r["train_info"]["cpu_s"] / 60.0,
-                 "wall_min": r["train_info"]["wall_s"] / 60.0, "model": r["train_info"]["model"],
-                 "reused": r["reused"], "metrics": {k: v for k, v in r["metrics"].items() if k != "agent"}}
-                for r in swept if r["trial"]["env_id"] == env_id]
-        agents = {f"{a.algo.upper()} ({a.timesteps // 1000}k steps)": rows}
+        agents: dict[str, list[dict[str, Any]]] = {}
+        for variant in ("pure", "residual"):
+            rows = [{"seed": r["train_info"]["seed"], "cpu_min": r["train_info"]["cpu_s"] / 60.0,
+                     "wall_min": r["train_info"]["wall_s"] / 60.0, "model": r["train_info"]["model"],
+                     "reused": r["reused"], "metrics": {k: v for k, v in r["metrics"].items() if k != "agent"}}
+                    for r in swept if r["trial"]["env_id"] == env_id and r["trial"]["variant"] == variant]
+            if rows:
+                k = steps_for[env_id] // 1000
+                name = (f"{a.algo.upper()} ({k}k steps)" if variant == "pure" else
+                        f"residual {a.algo.upper()} over {res_envs[env_id]} ({k}k steps; not a pure agent)")
+                agents[name] = rows
         base = base_all[env_id]
         short = env_id.split("/")[1]
         pareto_plot(env_id, agents, base, docs / "img" / f"pareto_{short}.png")
         sections.append(f"#### {env_id}\n\n{table(env_id, agents, base)}\n\n![pareto](img/pareto_{short}.png)\n")
-        record["envs"][env_id] = {"agents": rows, "baselines": base}
+        record["envs"][env_id] = {"agents": agents, "baselines": base}
     write_json(results_path, record)
     update_doc(docs / "agents.md", "\n".join(sections))
     print("\n".join(sections))
