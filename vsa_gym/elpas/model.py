@@ -60,13 +60,8 @@ from vsa_gym.elpas.extensions import (
 )
 from vsa_gym.elpas.params import GRAVITY, ElpasParams
 from vsa_gym.physics.dc_motor import applied_voltage, current_derivative, shaft_torque
-from vsa_gym.physics.friction import (
-    bristle_derivative,
-    bristle_rate,
-    exponential_rk4,
-    lugre_moment,
-    phi_functions,
-)
+from vsa_gym.physics.friction import bristle_derivative, bristle_rate, lugre_moment
+from vsa_gym.physics.integrate import etdrk4_weights, exponential_rk4
 from vsa_gym.physics.parameters import ParameterSet, as_batch
 
 # ----------------------------------------------------------------------------- state layout
@@ -376,12 +371,7 @@ def _step_compiled(x: np.ndarray, rin: np.ndarray, p: ElpasParams, dt: float, n_
     energy = np.zeros((n, N_POWER))
     for _ in range(n_sub):
         lam = bristle_rate(p.friction, p.drive.N * (y[:, OMEGA] - c * y[:, BRISTLE]) / J)
-        e_half, p1_half, _, _ = phi_functions(-0.5 * h * lam)
-        e_full, f1, f2, f3 = phi_functions(-h * lam)
-        f_u = f1 - 3.0 * f2 + 4.0 * f3
-        f_ab = 2.0 * (f2 - 2.0 * f3)
-        f_c = 4.0 * f3 - f2
-        w_half = 0.5 * h * p1_half
+        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)  # the numpy step's weights (integrate.py)
         zs = y[:, BRISTLE].copy()
 
         _rhs_q_core(y, rin, p, ports, vehicle, c, J, k1, p1)
