@@ -270,3 +270,28 @@ def test_sb3_adapter_and_five_line_training() -> None:
     assert done.all() and all("terminal_observation" in d and d["TimeLimit.truncated"] for d in infos)
     env = gym.make("vsa_gym/ELPAS-ForceTracking-v0")
     PPO("MlpPolicy", env, n_steps=64, batch_size=32, n_epochs=1, seed=0).learn(128)
+
+
+@pytest.mark.parametrize("randomized", [False, True])
+def test_compiled_vsaut2_sensing_equals_the_sensor_models(randomized: bool) -> None:
+    """The env's compiled per-step sensing gives what the sensor objects and the model's numpy functions give."""
+    from vsa_gym.physics.lever import spring_stiffness
+    from vsa_gym.physics.pivot import pivot_position
+
+    kw = {"domain_randomization": {"lever.k": (1500.0, 2200.0)}} if randomized else {}
+    venv = gym.make_vec("vsa_gym/VsaUT2-PositionStiffness-v0", num_envs=3, vectorization_mode="vector_entry_point",
+                        **kw)
+    venv.reset(seed=11)
+    task = venv.unwrapped.task
+    for a in _actions("vsa_gym/VsaUT2-PositionStiffness-v0", 60, seed=2, n=3):
+        venv.step(a)
+        np.testing.assert_array_equal(task.s["meas"], task._measure(task._all_rows))
+        np.testing.assert_array_equal(task._stiffness(), task.model.stiffness(task.s["x"]))
+    p, m, c = task.params, task.s["meas"], task._cols()
+    q1 = pivot_position(p.pivot, m[:, 0] / c["n1"])
+    q2 = m[:, 1] / c["ratio"]
+    K_s = spring_stiffness(p.lever, q1, m[:, 2] - q2)
+    K = np.where(K_s > 0, np.maximum(K_s * c["K_b"] / (K_s + c["K_b"]), 0.1), 0.1)
+    expect = np.stack([q1, q2, m[:, 2], *task.s["vel"].T, *task.s["cur"].T, np.log(K)], axis=1)
+    np.testing.assert_array_equal(task._common_obs(task._all_rows), expect)
+    venv.close()

@@ -135,7 +135,16 @@ class ElpasTask(BatchedTask):
         self._build_params()
 
     def _col(self, value: Any) -> np.ndarray:
-        return np.broadcast_to(np.asarray(value, dtype=np.float64), (self.n,))
+        """A parameter (float or ``(n,)``) as an ``(n,)`` array, memoised per parameter set (not rebuilt every step)."""
+        memo = self.__dict__.get("_col_memo")
+        if memo is None or memo[0] is not self.params:
+            memo = (self.params, {})
+            self._col_memo = memo
+        hit = memo[1].get(id(value))
+        if hit is None or hit[0] is not value:  # the value is kept alive in the memo, so its id is not reused
+            hit = (value, np.broadcast_to(np.asarray(value, dtype=np.float64), (self.n,)))
+            memo[1][id(value)] = hit
+        return hit[1]
 
     # ------------------------------------------------------------------ sensors
     def _common_channels(self) -> list[ObsChannel]:
@@ -161,7 +170,8 @@ class ElpasTask(BatchedTask):
         return np.stack([gam, alp], axis=1)
 
     def _read_analog(self, rows: np.ndarray) -> None:
-        F = em.actuator_force_of(self.params, self.s["x"])[rows]
+        self._F_true = em.actuator_force_of(self.params, self.s["x"])  # true F_act of every row at the current state
+        F = self._F_true[rows]
         self.s["cur"][rows] = add_noise(self.s["x"][rows, em.CURRENT], self.noise["current"], self.rngs, rows)
         self.s["force"][rows] = add_noise(F, self.noise["force"], self.rngs, rows)
 
@@ -171,7 +181,7 @@ class ElpasTask(BatchedTask):
         self._read_analog(rows)
 
     def _update_sensors(self) -> None:
-        rows = np.arange(self.n)
+        rows = self._all_rows
         m = self._measure(rows)
         self.s["vel"] = update_velocity(self.s["meas"], m, self.s["vel"], self.control_dt, self.v_gain)
         self.s["meas"] = m

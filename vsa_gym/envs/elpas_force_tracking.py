@@ -59,9 +59,9 @@ class ForceTrackingTask(ElpasTask):
         alpha_end = self.alpha_sig.value(self.s, t_new)
         e_el = self._physics(a, alpha_end)
         charged, info = self._energy_info(e_el)
-        F = em.actuator_force_of(self.params, self.s["x"])
+        F = self._F_true  # em.actuator_force_of(params, x) at the new state, computed by the sensor read
         err = F - self.s["f_ref"]
-        margins = self._drive_margins(np.arange(self.n))
+        margins = self._drive_margins(self._all_rows)
         fail = (margins["margin_gamma_stop"] <= 0) | (margins["margin_i2t"] <= 0)
         terms = {
             "force": -self.w_force * (err / self.force_scale) ** 2,

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numba
 import numpy as np
 
 STEP, RAMP, SINE = 0, 1, 2
@@ -68,23 +69,52 @@ class SegmentReference:
         v = np.array([rngs[int(i)].uniform(self.low, self.high) for i in rows])
         self.start(s, rows, rngs, np.zeros(len(rows)), v)
 
-    def value(self, s: dict[str, np.ndarray], t: np.ndarray, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
+    def _cols(self, s: dict[str, np.ndarray], rows: np.ndarray | slice) -> tuple[np.ndarray, ...]:
         p = self.prefix
-        kind, t0, T = s[f"{p}_kind"][rows], s[f"{p}_t0"][rows], s[f"{p}_T"][rows]
-        v0, v1, A, f = s[f"{p}_v0"][rows], s[f"{p}_v1"][rows], s[f"{p}_A"][rows], s[f"{p}_f"][rows]
-        tau = t - t0
-        ramp = v0 + (v1 - v0) * np.clip(tau / T, 0.0, 1.0)
-        sine = v0 + A * np.sin(2.0 * np.pi * f * tau)
-        return np.where(kind == STEP, v1, np.where(kind == RAMP, ramp, sine))
+        return tuple(s[f"{p}_{name}"][rows] for name in ("kind", "t0", "T", "v0", "v1", "A", "f"))
+
+    def value(self, s: dict[str, np.ndarray], t: np.ndarray, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """Value of the current segments of ``rows`` at times ``t`` (compiled; one call, no temporaries)."""
+        cols = self._cols(s, rows)
+        t = np.asarray(t, dtype=np.float64)
+        if t.shape != cols[0].shape:
+            t = np.ascontiguousarray(np.broadcast_to(t, cols[0].shape))
+        return _segment_values(*cols, t)[0]
 
     def advance(self, s: dict[str, np.ndarray], t: np.ndarray, rngs: list[np.random.Generator]) -> np.ndarray:
         """Value at times ``t`` (all rows), renewing the segments that have ended."""
-        v = self.value(s, t)
-        ended = np.flatnonzero(t >= s[f"{self.prefix}_t0"] + s[f"{self.prefix}_T"])
-        if ended.size:
+        v, ended_mask, n_ended = _segment_values(*self._cols(s, slice(None)), np.asarray(t, dtype=np.float64))
+        if n_ended:
+            ended = np.flatnonzero(ended_mask)
             self.start(s, ended, rngs, t[ended], v[ended])
             v[ended] = self.value(s, t[ended], ended)
         return v
+
+
+@numba.njit(cache=True)
+def _segment_values(kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray, v1: np.ndarray,
+                    A: np.ndarray, f: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """Segment values at ``t`` and which segments have ended (``t >= t0 + T``); all ``(n,)``.
+
+    Per element, with ``tau = t - t0``: step ``v1``; ramp ``v0 + (v1 - v0) clip(tau / T, 0, 1)``;
+    sine ``v0 + A sin(2 pi f tau)`` -- the same operations in the same order as the former numpy
+    expression, so the values are unchanged.
+    """
+    n = t.shape[0]
+    out = np.empty(n)
+    ended = np.empty(n, dtype=np.bool_)
+    n_ended = 0
+    for i in range(n):
+        tau = t[i] - t0[i]
+        if kind[i] == STEP:
+            out[i] = v1[i]
+        elif kind[i] == RAMP:
+            out[i] = v0[i] + (v1[i] - v0[i]) * min(max(tau / T[i], 0.0), 1.0)
+        else:
+            out[i] = v0[i] + A[i] * np.sin(2.0 * np.pi * f[i] * tau)
+        ended[i] = t[i] >= t0[i] + T[i]
+        n_ended += ended[i]
+    return out, ended, n_ended
 
 
 class Multisine:
@@ -101,7 +131,8 @@ class Multisine:
         self.k = n_sines + n_noise
 
     def alloc(self, s: dict[str, np.ndarray], n: int) -> None:
-        for name in ("A", "f", "phi"):
+        # w = 2 pi f and sin(phi) are cached at reset (same values as computing them every step)
+        for name in ("A", "f", "phi", "w", "sphi"):
             s[f"{self.prefix}_{name}"] = np.zeros((n, self.k))
 
     def reset(self, s: dict[str, np.ndarray], rows: np.ndarray, rngs: list[np.random.Generator]) -> None:
@@ -117,11 +148,13 @@ class Multisine:
             s[f"{p}_A"][i] = level * np.concatenate([a_s, a_n])
             s[f"{p}_f"][i] = np.concatenate([f_s, self.noise_f])
             s[f"{p}_phi"][i] = rng.uniform(0.0, 2.0 * np.pi, self.k)
+        s[f"{p}_w"][rows] = 2.0 * np.pi * s[f"{p}_f"][rows]
+        s[f"{p}_sphi"][rows] = np.sin(s[f"{p}_phi"][rows])
 
     def value(self, s: dict[str, np.ndarray], t: np.ndarray, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
         """Signal at times ``t``, starting from 0 at ``t = 0`` (the value at 0 is subtracted)."""
         p = self.prefix
-        A, f, phi = s[f"{p}_A"][rows], s[f"{p}_f"][rows], s[f"{p}_phi"][rows]
+        A, w, phi, sphi = s[f"{p}_A"][rows], s[f"{p}_w"][rows], s[f"{p}_phi"][rows], s[f"{p}_sphi"][rows]
         tt = np.asarray(t)[..., None]
         # sin(w t + phi) - sin(phi): starts at zero; the bound doubles, so halve the amplitudes
-        return 0.5 * np.sum(A * (np.sin(2.0 * np.pi * f * tt + phi) - np.sin(phi)), axis=-1)
+        return 0.5 * np.sum(A * (np.sin(w * tt + phi) - sphi), axis=-1)

@@ -114,6 +114,10 @@ class BatchedTask(ABC):
         self.rngs: list[np.random.Generator] = [seeding.np_random(None)[0] for _ in range(self.n)]
         self.s: dict[str, np.ndarray] = {}
         self._hist_len = max(2, int(round(self.history_s / self.control_dt)))
+        self._all_rows = np.arange(self.n)
+        #: Keep the render history (:meth:`history`)?  The environments switch it off without a render_mode:
+        #: nothing reads it then, and it cost a tenth of a single env's step.
+        self.record_history = True
 
     # ------------------------------------------------------------------ spaces
     @property
@@ -164,15 +168,15 @@ class BatchedTask(ABC):
             a = a[None, :]
         if a.shape != (self.n, m):
             raise ValueError(f"action: expected shape ({m},) per environment, i.e. ({self.n}, {m}); got {a.shape}")
-        bad = ~np.isfinite(a)
-        if np.any(bad):
+        if not np.isfinite(a).all():
+            bad = ~np.isfinite(a)
             row, k = (int(v) for v in np.argwhere(bad)[0])
             raise ValueError(
                 f"action component {k} ({self.action_names[k]}) is {a[row, k]!r} in environment {row}; "
                 "actions must be finite (nothing was changed)"
             )
         clipped = np.any(np.abs(a) > 1.0, axis=1)
-        return np.clip(a, -1.0, 1.0), clipped
+        return np.minimum(np.maximum(a, -1.0), 1.0), clipped  # = np.clip for finite values, cheaper
 
     def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """Advance all rows one control step. Returns ``(obs, reward, terminated, info)`` batched."""
@@ -183,8 +187,8 @@ class BatchedTask(ABC):
             reward = reward + terms[name]
             info[f"reward_{name}"] = terms[name]
         self.s["t"] += self.control_dt
-        self.s["obs"][:] = self._clip_obs(self._observe(np.arange(self.n)))
-        self._record(np.arange(self.n))
+        self.s["obs"][:] = self._clip_obs(self._observe(self._all_rows))
+        self._record(self._all_rows)
         info["action_clipped"] = clipped
         info["time"] = self.s["t"].copy()
         return self.s["obs"].copy(), reward, terminated, info
@@ -232,10 +236,10 @@ class BatchedTask(ABC):
         if bounds is None or bounds[0] is not self.obs_channels:  # the channels are fixed per instance
             bounds = (self.obs_channels, self.obs_low.astype(np.float64), self.obs_high.astype(np.float64))
             self._obs_bounds64 = bounds
-        return np.clip(obs, bounds[1], bounds[2]).astype(np.float32)
+        return np.minimum(np.maximum(obs, bounds[1]), bounds[2]).astype(np.float32)  # np.clip, cheaper
 
     def _record(self, rows: np.ndarray) -> None:
-        if not self.trace_names:
+        if not self.trace_names or not self.record_history:
             return
         vals = self._traces(rows)
         pos = self.s["hist_pos"][rows]
@@ -307,6 +311,7 @@ class TaskEnv(gym.Env[np.ndarray, np.ndarray]):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None, got {render_mode!r}")
         self.render_mode = render_mode
         self.task = self.task_cls(1, **task_kwargs)
+        self.task.record_history = render_mode is not None
         self.observation_space = self.task.single_observation_space()
         self.action_space = self.task.single_action_space()
         self._renderer: Any = None

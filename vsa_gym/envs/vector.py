@@ -44,6 +44,7 @@ class TaskVectorEnv(VectorEnv):
         if render_mode is not None and render_mode not in ("rgb_array",):
             raise ValueError(f"vector render_mode must be 'rgb_array' or None, got {render_mode!r}")
         self.task = self.task_cls(num_envs, **task_kwargs)
+        self.task.record_history = render_mode is not None
         self.num_envs = self.task.n
         self.render_mode = render_mode
         self.autoreset_mode = AutoresetMode(autoreset_mode)

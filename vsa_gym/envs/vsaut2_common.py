@@ -27,21 +27,27 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.envs.randomization import DomainRandomization
-from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
+from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, lowpass_gain
 from vsa_gym.envs.task import BatchedTask, ControlMode, ObsChannel, RegenPolicy
 from vsa_gym.physics.belt import belt_stiffness_at_frame
 from vsa_gym.physics.dc_motor import current_control_voltage
-from vsa_gym.physics.lever import spring_stiffness
+from vsa_gym.physics.lever import lever_ratio, spring_stiffness
 from vsa_gym.physics.pivot import pivot_position
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
-from vsa_gym.vsaut2.model import POWER, STATE, VsaUT2Model
+from vsa_gym.vsaut2.model import _P_ROW, INTEGRATORS, POWER, STATE, VsaUT2Model
 from vsa_gym.vsaut2.params import VsaUT2Params
 
 CURRENT_LOOP_DT = 1e-4  # s, 10 kHz current loop in current mode
 K_FLOOR = 0.1  # N m/rad, floor of the stiffness before taking its log (eq. 6 turns negative past 45 deg)
+
+# eq. (6) of the lever, made callable from the compiled sensing below (the same functions, not a copy)
+register_jitable(lever_ratio)
+register_jitable(spring_stiffness)
 
 
 class VsaUT2Task(BatchedTask):
@@ -65,6 +71,7 @@ class VsaUT2Task(BatchedTask):
         i_nominal: float = 4.0,
         i2t_trip_s: float = 2.0,
         velocity_cutoff_hz: float = 50.0,
+        integrator: str = "rk4",
     ) -> None:
         super().__init__(n, control_dt=control_dt, control_mode=control_mode, sensor_noise=sensor_noise,
                          domain_randomization=domain_randomization, regen=regen)
@@ -78,6 +85,9 @@ class VsaUT2Task(BatchedTask):
         self.row_params = list(self.base_rows)
         if self.randomization is not None:
             self.randomization.check(base)
+        if integrator not in INTEGRATORS:
+            raise ValueError(f"integrator must be one of {INTEGRATORS}, got {integrator!r}")
+        self.integrator = integrator  # numerics of the core (VsaUT2Model.integrator); "rk4" is the default
         self._build_model()
         self.current_bandwidth_hz = float(current_bandwidth_hz)
         self.i_nominal = float(i_nominal)
@@ -85,6 +95,10 @@ class VsaUT2Task(BatchedTask):
         self.v_gain = lowpass_gain(velocity_cutoff_hz, self.control_dt)
         self.motor_encoder = IncrementalEncoder()
         self.output_encoder = AbsoluteEncoder()
+        # the encoders' quantisers as numbers for the compiled sensing (step 0: encoder disabled, exact angle)
+        me, oe = self.motor_encoder, self.output_encoder
+        self._enc = np.array([me.resolution if me.enabled else 0.0, oe.resolution if oe.enabled else 0.0,
+                              oe.gain_mismatch if oe.enabled else 0.0])
         if control_mode == "current":
             self.n_inner = max(1, int(round(self.control_dt / CURRENT_LOOP_DT)))
         else:
@@ -104,7 +118,7 @@ class VsaUT2Task(BatchedTask):
             self.params = self.row_params[0]
         else:
             self.params = VsaUT2Params.stack(self.row_params)
-        self.model = VsaUT2Model(self.params)
+        self.model = VsaUT2Model(self.params, integrator=self.integrator)
         self._cols_for: VsaUT2Params | None = None
 
     def _cols(self) -> dict[str, np.ndarray]:
@@ -122,6 +136,7 @@ class VsaUT2Task(BatchedTask):
                 "ratio": np.array(self._col(p.frame_ratio)),
                 "K_b": np.array(self._col(belt_stiffness_at_frame(p.belt))),
             }
+            self._cols_cache["i2t_lim"] = i2t_limit(self._cols_cache["I_max"], self.i_nominal, self.i2t_trip_s)
             self._cols_for = p
         return self._cols_cache
 
@@ -175,27 +190,22 @@ class VsaUT2Task(BatchedTask):
         self.s["cur"][rows] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
 
     def _update_sensors(self) -> None:
-        rows = np.arange(self.n)
-        m = self._measure(rows)
-        self.s["vel"] = update_velocity(self.s["meas"], m, self.s["vel"], self.control_dt, self.v_gain)
-        self.s["meas"] = m
+        """I^2 t states, encoder reads and speed estimates of every row (one compiled call), then the currents."""
+        rows = self._all_rows
         x = self.s["x"]
+        _sense_update(x, self.s["meas"], self.s["vel"], self.s["i2t"], self._enc, self.control_dt, self.v_gain,
+                      self.i_nominal)
         self.s["cur"] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
 
     def _common_obs(self, rows: np.ndarray) -> np.ndarray:
-        p = self.params
+        """The 9 common channels of ``rows`` (compiled: eq. 5 and eq. 6 on the quantised angles)."""
         c = self._cols()
-        m, v = self.s["meas"][rows], self.s["vel"][rows]
-        n1 = c["n1"][rows]
-        ratio = c["ratio"][rows]
-        q1 = pivot_position(_rows(p.pivot, rows, self.n), m[:, 0] / n1)
-        q2 = m[:, 1] / ratio
-        K_s = spring_stiffness(_rows(p.lever, rows, self.n), q1, m[:, 2] - q2)
-        K_b = c["K_b"][rows]
-        K = np.maximum(K_s * K_b / (K_s + K_b), K_FLOOR)
-        K = np.where(K_s > 0, K, K_FLOOR)
-        cur = self.s["cur"][rows]
-        return np.stack([q1, q2, m[:, 2], v[:, 0], v[:, 1], v[:, 2], cur[:, 0], cur[:, 1], np.log(K)], axis=1)
+        return _common_obs_rows(self.s["meas"], self.s["vel"], self.s["cur"], self.model._p_rows, c["K_b"],
+                                c["ratio"], np.asarray(rows, dtype=np.intp))
+
+    def _stiffness(self) -> np.ndarray:
+        """True output stiffness of every row, ``VsaUT2Model.stiffness`` (eq. 6 in series with the belt), compiled."""
+        return _true_stiffness(self.s["x"], self.model._p_rows, self._cols()["K_b"])
 
     # ------------------------------------------------------------------ physics step
     def _physics(self, a: np.ndarray, tau_ext: np.ndarray, enabled: np.ndarray | None = None) -> np.ndarray:
@@ -206,7 +216,6 @@ class VsaUT2Task(BatchedTask):
         p = self.params
         m1, m2 = p.pivot_motor, p.frame_motor
         x = self.s["x"]
-        e_sum = np.zeros((self.n, len(POWER)))
         if self.control_mode == "voltage":
             u = a * self._cols()["U_max"]
             if enabled is not None:
@@ -214,6 +223,7 @@ class VsaUT2Task(BatchedTask):
             x, e_sum = self.model.step(x, u, tau_ext, self.control_dt)
         else:
             i_ref = a * self._cols()["I_max"]
+            e_sum = np.zeros((self.n, len(POWER)))
             dt = self.control_dt / self.n_inner
             for _ in range(self.n_inner):
                 u = np.stack([
@@ -228,29 +238,19 @@ class VsaUT2Task(BatchedTask):
                 e_sum = e_sum + e
         self.s["x"] = x
         e_m = e_sum[:, [POWER["el_pivot"], POWER["el_frame"]]]
-        i_sq = x[:, [STATE["i1"], STATE["i2"]]] ** 2
-        self.s["i2t"] = i2t_update(self.s["i2t"], i_sq, self.i_nominal, self.control_dt)
-        self._update_sensors()
+        self._update_sensors()  # also advances the I^2 t states (sensing.i2t_update)
         return e_m
 
     # ------------------------------------------------------------------ failures and margins
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         c = self._cols()
-        x = self.s["x"][rows]
-        q2, phi = x[:, STATE["q2"]], x[:, STATE["r"]] - x[:, STATE["q2"]]
-        th1 = x[:, STATE["th1"]]
-        th1_max = c["th1_max"][rows]
-        i_max = c["I_max"][rows]
-        lim = i2t_limit(i_max, self.i_nominal, self.i2t_trip_s)
-        return {
-            "margin_frame_stop": c["q2_max"][rows] - np.abs(q2),
-            "margin_deflection_stop": c["phi_max"][rows] - np.abs(phi),
-            "margin_i2t": np.min(1.0 - self.s["i2t"][rows] / lim, axis=1),
-            "margin_pivot_stroke": np.minimum(th1, th1_max - th1) / th1_max,
-        }
+        mg = _margin_rows(self.s["x"], self.s["i2t"], c["th1_max"], c["q2_max"], c["phi_max"], c["i2t_lim"],
+                          np.asarray(rows, dtype=np.intp))
+        return {"margin_frame_stop": mg[:, 0], "margin_deflection_stop": mg[:, 1], "margin_i2t": mg[:, 2],
+                "margin_pivot_stroke": mg[:, 3]}
 
     def _failures(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        mg = self._margins(np.arange(self.n))
+        mg = self._margins(self._all_rows)
         fail = (mg["margin_frame_stop"] <= 0) | (mg["margin_deflection_stop"] <= 0) | (mg["margin_i2t"] <= 0)
         return fail, mg
 
@@ -303,28 +303,71 @@ def _circle(xy: tuple[float, float], radius: float, color: str) -> Any:
     return Circle(xy, radius, color=color)
 
 
-def _rows(ps: Any, rows: np.ndarray, n: int) -> Any:
-    """A parameter set restricted to ``rows`` when batched (scalars pass through)."""
-    if _batch_size(ps) is None:
-        return ps
-    import dataclasses
-
-    changes = {}
-    for f in dataclasses.fields(ps):
-        v = getattr(ps, f.name)
-        if isinstance(v, np.ndarray):
-            changes[f.name] = v[rows]
-    return dataclasses.replace(ps, **changes)
+# ---------------------------------------------------------------------------- compiled per-step sensing
+# Element by element, with the operations of the numpy expressions they replace (sensors.IncrementalEncoder /
+# AbsoluteEncoder.measure, sensing.update_velocity and i2t_update, eqs. 5 and 6): the values are unchanged
+# (tests/envs checks them against the sensor objects); one call replaces about 40 small numpy calls per step.
 
 
-def _batch_size(ps: Any) -> int | None:
-    """``ps.batch_size``, memoised on the (frozen) parameter set: the property walks every field."""
-    bs = ps.__dict__.get("_batch_size_memo", -1)
-    if bs == -1:
-        bs = ps.batch_size
-        object.__setattr__(ps, "_batch_size_memo", bs)
-    return bs
+@numba.njit(cache=True)
+def _sense_update(x: np.ndarray, meas: np.ndarray, vel: np.ndarray, i2t: np.ndarray, enc: np.ndarray, dt: float,
+                  gain: float, i_nom: float) -> None:
+    """In place, every row: I^2 t states ``(n, 2)``, quantised angles ``meas`` and speed estimates ``vel`` ``(n, 3)``.
+
+    ``enc = [motor encoder step, output encoder step, output gain mismatch]`` (step 0: exact angle).
+    """
+    for i in range(x.shape[0]):
+        for j, col in ((0, 0), (1, 3)):
+            i2t[i, j] = max(i2t[i, j] + (x[i, col] ** 2 - i_nom**2) * dt, 0.0)
+        m = np.empty(3)
+        for j, col in ((0, 1), (1, 4)):
+            m[j] = x[i, col] if enc[0] == 0.0 else np.floor(x[i, col] / enc[0]) * enc[0]
+        r = x[i, 8]
+        m[2] = r if enc[1] == 0.0 else np.round((r + enc[2] * np.sin(2.0 * r)) / enc[1]) * enc[1]
+        for j in range(3):
+            vel[i, j] = vel[i, j] + gain * ((m[j] - meas[i, j]) / dt - vel[i, j])
+            meas[i, j] = m[j]
 
 
-def _rows_value(v: Any, rows: np.ndarray, n: int) -> np.ndarray:
-    return np.broadcast_to(np.asarray(v, dtype=np.float64), (n,))[rows]
+@numba.njit(cache=True)
+def _common_obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, P: np.ndarray, K_b: np.ndarray,
+                     ratio: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The 9 common observation channels of ``rows``, ``(len(rows), 9)`` (see ``_common_channels``)."""
+    out = np.empty((rows.shape[0], 9))
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        p = _P_ROW(P, i)
+        q1 = pivot_position(p.pivot, meas[i, 0] / p.pivot_gearbox.n)
+        q2 = meas[i, 1] / ratio[i]
+        K_s = spring_stiffness(p.lever, q1, meas[i, 2] - q2)
+        K = max(K_s * K_b[i] / (K_s + K_b[i]), K_FLOOR) if K_s > 0 else K_FLOOR
+        out[j, 0], out[j, 1], out[j, 2] = q1, q2, meas[i, 2]
+        out[j, 3], out[j, 4], out[j, 5] = vel[i, 0], vel[i, 1], vel[i, 2]
+        out[j, 6], out[j, 7], out[j, 8] = cur[i, 0], cur[i, 1], np.log(K)
+    return out
+
+
+@numba.njit(cache=True)
+def _true_stiffness(x: np.ndarray, P: np.ndarray, K_b: np.ndarray) -> np.ndarray:
+    """``VsaUT2Model.stiffness(x)``: eq. (6) at the true pivot and deflection in series with the belt, ``(n,)``."""
+    out = np.empty(x.shape[0])
+    for i in range(x.shape[0]):
+        p = _P_ROW(P, i)
+        K_s = spring_stiffness(p.lever, pivot_position(p.pivot, x[i, 1] / p.pivot_gearbox.n), x[i, 8] - x[i, 6])
+        out[i] = K_s * K_b[i] / (K_s + K_b[i])
+    return out
+
+
+@numba.njit(cache=True)
+def _margin_rows(x: np.ndarray, i2t: np.ndarray, th1_max: np.ndarray, q2_max: np.ndarray, phi_max: np.ndarray,
+                 lim: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Constraint margins of ``rows``, ``(len(rows), 4)``: frame stop, deflection stop, I^2 t, pivot stroke."""
+    out = np.empty((rows.shape[0], 4))
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        q2, th1 = x[i, 6], x[i, 1]
+        out[j, 0] = q2_max[i] - abs(q2)
+        out[j, 1] = phi_max[i] - abs(x[i, 8] - q2)
+        out[j, 2] = min(1.0 - i2t[i, 0] / lim[i, 0], 1.0 - i2t[i, 1] / lim[i, 1])
+        out[j, 3] = min(th1, th1_max[i] - th1) / th1_max[i]
+    return out
