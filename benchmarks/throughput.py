@@ -20,6 +20,8 @@ Measures, in one process on one machine:
 * identification: the wall time of ``Identifier().fit`` on a 20 s, 1 kHz synthetic drive
   record (``identify_20s_record_wall_s``), the drive replay speed, and the vsaUT-II core
   replaying 20 s at 1 kHz, in simulated seconds per wall second;
+* the vsaUT-II ids again with the opt-in exponential integrator (``integrator="etd"``): single env at
+  1 ms, vector at the largest ``n``, and its Radau error (``etd`` keys);
 * peak resident memory of the process;
 * each environment's core at the environment's control step against the Radau reference
   (rtol 1e-9 for the vsaUT-II, 1e-7 for the eLPAS, as their tests), as the worst state
@@ -137,10 +139,10 @@ def measure_single(env_id: str, window_s: float, **kwargs: Any) -> dict[str, Any
             "sim_s_per_wall_s": rate * dt}
 
 
-def measure_vector(env_id: str, n: int, window_s: float) -> dict[str, Any]:
+def measure_vector(env_id: str, n: int, window_s: float, **kwargs: Any) -> dict[str, Any]:
     import gymnasium as gym
 
-    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
     env.reset(seed=0)
     env.action_space.seed(0)
 
@@ -160,7 +162,7 @@ def _worst_relative(xs: np.ndarray, ref: np.ndarray) -> float:
     return float(np.max(np.abs(xs - ref).max(axis=0) / scale))
 
 
-def accuracy(env_id: str, n_steps: int, seed: int = 0) -> dict[str, Any]:
+def accuracy(env_id: str, n_steps: int, seed: int = 0, **kwargs: Any) -> dict[str, Any]:
     """The environment's own core (its parameters, control step, sub-steps, compiled or not) against Radau.
 
     Random commands (uniform in the action box, scaled as the environment's voltage mode
@@ -170,7 +172,7 @@ def accuracy(env_id: str, n_steps: int, seed: int = 0) -> dict[str, Any]:
 
     from vsa_gym.physics.integrate import reference_solution
 
-    env = gym.make(env_id)
+    env = gym.make(env_id, **kwargs)
     env.reset(seed=seed)
     task = env.unwrapped.task
     rng = np.random.default_rng(seed)
@@ -326,6 +328,17 @@ def markdown(res: dict[str, Any]) -> str:
             lines.append(f"| vector n={n} `{env_id.split('/')[-1]}` | default | {_fmt(r['steps_per_s'])} | "
                          f"{ratio(r['steps_per_s'])} | {_fmt(r['steps_per_cpu_s'])} | "
                          f"{ratio(r['steps_per_cpu_s'], peer_cpu)} | |")
+    for env_id, e in res.get("etd", {}).items():
+        name = env_id.split("/")[-1]
+        a = e["accuracy"]
+        r1 = e["single_1ms"]
+        lines.append(f"| single `{name}`, `integrator=\"etd\"` | 1 ms | {_fmt(r1['steps_per_s'])} | "
+                     f"{ratio(r1['steps_per_s'])} | {_fmt(r1['steps_per_cpu_s'])} | "
+                     f"{ratio(r1['steps_per_cpu_s'], peer_cpu)} | {a['worst_relative_state_error']:.1e} |")
+        for n, r in e["vector"].items():
+            lines.append(f"| vector n={n} `{name}`, `integrator=\"etd\"` | default | {_fmt(r['steps_per_s'])} | "
+                         f"{ratio(r['steps_per_s'])} | {_fmt(r['steps_per_cpu_s'])} | "
+                         f"{ratio(r['steps_per_cpu_s'], peer_cpu)} | |")
     idr = res["identification"]
     lines += ["", "| identification | value |", "|---|---|",
               f"| vsaUT-II core replay, n=1, 1 ms steps | {_fmt(idr['vsaut2_replay_sim_s_per_wall_s'])} "
@@ -367,7 +380,13 @@ def run(quick: bool = False, ids: list[str] | None = None, sizes: tuple[int, ...
     res["identification"] = measure_identification(2.0 if quick else 20.0, window)
     res["identify_20s_record_wall_s"] = (res["identification"].get("identify_wall_s") if not quick else None)
     res["accuracy"] = {i: accuracy(i, 20 if quick else 100) for i in ids}
-    res["accuracy_ok"] = all(a["ok"] for a in res["accuracy"].values())
+    n_big = max(sizes)
+    res["etd"] = {i: {"single_1ms": measure_single(i, window, control_dt=1e-3, integrator="etd"),
+                      "vector": {n_big: measure_vector(i, n_big, window, integrator="etd")},
+                      "accuracy": accuracy(i, 20 if quick else 100, integrator="etd")}
+                  for i in ids if "VsaUT2" in i}
+    res["accuracy_ok"] = all(a["ok"] for a in res["accuracy"].values()) and \
+        all(e["accuracy"]["ok"] for e in res["etd"].values())
     res["peak_rss_mib"] = peak_rss_mib()
     if res["peer_steps_per_s"]:
         p = res["peer_steps_per_s"]

@@ -21,4 +21,7 @@ def test_quick_benchmark_completes_with_accuracy_bounds(tmp_path):
     assert all(v > 0 for v in res["vector_env_steps_per_s"].values())
     for env_id, acc in res["accuracy"].items():
         assert acc["worst_relative_state_error"] <= acc["bound"] == 1e-3, env_id
+    assert res["etd"], "the opt-in exponential integrator of the vsaUT-II ids is benchmarked too"
+    for env_id, e in res["etd"].items():
+        assert e["accuracy"]["worst_relative_state_error"] <= e["accuracy"]["bound"] == 1e-3, env_id
     assert res["accuracy_ok"] and rc == 0
