@@ -1,8 +1,10 @@
 """eLPAS rig force tests (closed loop, the paper's cascade) hiding one effect: the right cause, its parameter.
 
-Each case fits on a synthetic sine force test and scores on a step force test of the same device
-(held out).  The truth feeds the controller the quantised encoders, the replay does not (a small,
-realistic model error); force sensor noise 5 N.  Tolerance on the recovered parameter: 10 % relative.
+Each case fits on one of the paper's force tests -- a sine or a step test -- and scores on the other
+kind of test of the same device (held out; :func:`vsa_gym.identify.recovery.identify_case`).  The
+truth feeds the controller the quantised encoders, the replay does not (a small, realistic model
+error); force sensor noise 5 N.  Tolerance on the recovered parameter: 10 % relative.  Recovery
+rates over many seeds: ``python -m benchmarks.identify_recovery_devices --device elpas``.
 """
 
 from __future__ import annotations
@@ -12,23 +14,21 @@ import pytest
 
 from vsa_gym.identify.adapters import make_adapter
 from vsa_gym.identify.elpas_adapter import ElpasAdapter
-from vsa_gym.identify.pipeline import Identifier
+from vsa_gym.identify.recovery import identify_case, main_key
 from vsa_gym.identify.synthetic_elpas import make_elpas_record
 
 REL_TOL = 0.10
-DURATION = 1.5
 
 
-def _identify(seed: int, effect: str | None):
-    rec, truth = make_elpas_record(seed, effect, "sine", duration=DURATION)
-    test, _ = make_elpas_record(seed + 1000, effect, "step", duration=DURATION, truth=truth["params"])
-    return Identifier(n_fit=2, max_nfev=15).fit(rec, test).result_, truth
-
-
-@pytest.mark.parametrize(("effect", "key", "seed"), [("coulomb_friction", "F_c", 1),
-                                                     ("spring_stiffness_drift", "drift", 2)])
-def test_planted_effect_is_named_and_recovered(effect, key, seed):
-    res, truth = _identify(seed, effect)
+@pytest.mark.parametrize(("fit_on", "effect", "seed"), [
+    ("sine", "coulomb_friction", 1),  # the paper's "underestimated friction power"
+    ("sine", "spring_stiffness_drift", 2),  # the paper's drifting spring
+    ("sine", "viscous_friction", 1),  # underestimated friction power, the speed-proportional part
+    ("step", "alpha_offset", 1),  # the paper's nonzero disturbance moment at alpha = 0 (alignment error)
+])
+def test_planted_effect_is_named_and_recovered(fit_on, effect, seed):
+    res, truth = identify_case("elpas", fit_on, effect, seed)
+    key = main_key("elpas", effect)
     names = [e["name"] for e in res.effects]
     assert names == [effect], f"planted {truth['params']}, named {names}: {res.statements()}"
     got = res.effects[0]["parameters"][key]
@@ -36,14 +36,14 @@ def test_planted_effect_is_named_and_recovered(effect, key, seed):
     assert got == pytest.approx(want, rel=REL_TOL)
     lo, hi = res.effects[0]["ci"][key]
     assert lo < hi and not lo <= 0.0 <= hi
-    # held out: the step test of the same device
+    # held out: the other kind of force test of the same device
     assert res.test_name.startswith("test record")
     assert res.metrics_after["F"]["rmse"] < 0.7 * res.metrics_before["F"]["rmse"]
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_negative_control_reports_none(seed):
-    res, _ = _identify(200 + seed, None)
+@pytest.mark.parametrize(("fit_on", "seed"), [("sine", 0), ("sine", 1), ("sine", 2), ("step", 3)])
+def test_negative_control_reports_none(fit_on, seed):
+    res, _ = identify_case("elpas", fit_on, None, 200 + seed)
     assert res.effects == [], res.statements()
     assert res.statements()[0].startswith("No significant effect")
 
