@@ -6,6 +6,8 @@ false-positive rate on negative controls (vsaUT-II: ``synthetic_vsaut2.RANGES``;
 Writes ``DIR/recovery_<device>.json`` (one outcome per identification and the summary rows) and
 ``DIR/recovery_<device>.md`` (the table) after every finished case, seed-major, so an interrupted
 run leaves a consistent table over the seeds done (``--resume`` skips the cases already in the JSON).
+Runs split over processes (``--start I`` begins at seed index I, each with its own ``--out``) are
+joined with ``--merge JSON... --table-only``.  The table counts only seeds complete for every entry.
 Per-case logic: :mod:`vsa_gym.identify.recovery` (the tests use the same).
 """
 
@@ -24,10 +26,11 @@ EFFECT_SEED0 = 1000  # planted-effect records use seeds 1000 + i
 NEGATIVE_SEED0 = 2000  # negative controls 2000 + i
 
 
-def cases(device: str, seeds: int, experiments: list[str] | None) -> list[tuple[str, str, str | None, int]]:
-    """All ``(device, experiment, effect, seed)`` cases, seed-major."""
+def cases(device: str, seeds: int, experiments: list[str] | None,
+          start: int = 0) -> list[tuple[str, str, str | None, int]]:
+    """All ``(device, experiment, effect, seed)`` cases of seed indices ``start .. seeds - 1``, seed-major."""
     out = []
-    for i in range(seeds):
+    for i in range(start, seeds):
         for exp, eff in catalogue(device):
             if experiments is None or exp in experiments:
                 out.append((device, exp, eff, EFFECT_SEED0 + i))
@@ -41,8 +44,14 @@ def table(device: str, outcomes: list[dict[str, Any]]) -> tuple[dict[str, Any], 
     """Summary rows and their markdown table."""
     groups: dict[tuple[str, str | None], list[dict[str, Any]]] = {}
     order = [(exp, eff) for exp, eff in catalogue(device)] + [(exp, None) for exp in negative_experiments(device)]
+    per_index: dict[int, set[tuple[str, str | None]]] = {}
     for o in outcomes:
-        groups.setdefault((o["experiment"], o["effect"]), []).append(o)
+        per_index.setdefault(o["seed"] % 1000, set()).add((o["experiment"], o["effect"]))
+    present = {key for o in outcomes for key in [(o["experiment"], o["effect"])]}
+    complete = {i for i, got in per_index.items() if got >= present}
+    for o in outcomes:
+        if o["seed"] % 1000 in complete:
+            groups.setdefault((o["experiment"], o["effect"]), []).append(o)
     rows: dict[str, Any] = {}
     lines = ["| experiment | planted effect (main parameter) | seeds | recovered alone | median rel. error "
              "| max rel. error | named with an extra effect | missed (named instead) | false-positive rate "
@@ -82,6 +91,9 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=1, help="identifications in parallel (processes)")
     ap.add_argument("--experiments", nargs="*", default=None, help="only these experiments")
     ap.add_argument("--resume", action="store_true", help="keep the outcomes already in the JSON")
+    ap.add_argument("--start", type=int, default=0, help="first seed index")
+    ap.add_argument("--merge", nargs="*", default=[], help="outcome JSONs of other runs to join")
+    ap.add_argument("--table-only", action="store_true", help="run nothing, only rebuild the table")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -89,8 +101,12 @@ def main() -> None:
     outcomes: list[dict[str, Any]] = []
     if args.resume and js.exists():
         outcomes = json.loads(js.read_text())["outcomes"]
+    for other in args.merge:
+        outcomes += json.loads(Path(other).read_text())["outcomes"]
+    outcomes = list({(o["experiment"], o["effect"], o["seed"]): o for o in outcomes}.values())
     done = {(o["experiment"], o["effect"], o["seed"]) for o in outcomes}
-    todo = [c for c in cases(args.device, args.seeds, args.experiments) if (c[1], c[2], c[3]) not in done]
+    todo = [] if args.table_only else [c for c in cases(args.device, args.seeds, args.experiments, args.start)
+                                       if (c[1], c[2], c[3]) not in done]
     t0 = time.perf_counter()
 
     def save() -> None:
