@@ -1,6 +1,6 @@
 """Close the loop (issue #7, item 5): identify, rebuild the environment, retune, measure on the "measured" plant.
 
-``python -m benchmarks.identify_close_loop [--out DIR] [--seed S] [--quick]``
+``python -m benchmarks.identify_close_loop [--out DIR] [--seed S] [--quick] [--case vsaut2|elpas]``
 
 The case: the vsaUT-II with a drifted lever spring (``spring_stiffness_drift``: ``lever.k`` off by
 +6 ... 15 %, the range of :data:`vsa_gym.identify.synthetic_vsaut2.RANGES`).  The decoupled
@@ -24,7 +24,7 @@ Steps:
 4. the baseline tuned on the nominal model (paper gains, nominal parameters) runs on the truth plant;
 5. it is retuned on the identified environment only (:func:`baselines.retune.retune_decoupled`: the
    controller rebuilt on the identified parameters, then a Nelder-Mead search of two gain
-   multipliers on that environment's return over tuning seeds) and evaluated on the truth plant.
+   multipliers on that environment's per-step cost over tuning seeds) and evaluated on the truth plant.
    The same search on the nominal environment is the control: it separates what tuning alone gives
    from what the identified model gives.  The controller designed on the truth itself is shown as an
    oracle (not available in practice).
@@ -64,7 +64,7 @@ from vsa_gym.vsaut2.params import VsaUT2Params  # noqa: E402
 ENV_ID = PS_ENV
 EXPERIMENT = "free_oscillation"
 EFFECT = "spring_stiffness_drift"
-TUNE_SEEDS: tuple[int, ...] = (0, 1, 2, 3)
+TUNE_SEEDS: tuple[int, ...] = tuple(range(32))  # a vector env: seeds are cheap, steps are not
 EVAL_SEEDS: tuple[int, ...] = tuple(range(1000, 1016))
 METRICS = ("position_rms_rad", "log_stiffness_rms", "energy_J", "return", "violations", "steps")
 PAIRED = ("log_stiffness_rms", "lnK_median_abs", "position_rms_rad", "energy_J")
@@ -77,8 +77,9 @@ class CloseLoopSettings:
     seed: int = 1
     tune_seeds: tuple[int, ...] = TUNE_SEEDS
     eval_seeds: tuple[int, ...] = EVAL_SEEDS
-    episode_steps: int | None = None  # None: the env's 2500 steps (5 s)
-    max_evals: int = 16  # Nelder-Mead budget of each gain search (0: rebuild only)
+    episode_steps: int | None = None  # evaluation episodes; None: the env's 2500 steps (5 s)
+    tune_steps: int | None = None  # tuning episodes; None: the env's 2500 steps, as evaluated
+    max_evals: int = 12  # Nelder-Mead budget of each gain search (0: rebuild only)
     candidates: tuple[str, ...] | None = None  # identifier catalogue (None: all the adapter offers)
     n_fit: int = 3
     control_search: bool = True  # also run the same search on the nominal env (the control)
@@ -87,8 +88,8 @@ class CloseLoopSettings:
     def quick(cls, seed: int = 1) -> CloseLoopSettings:
         """A < 1 min version: three competing effects, short episodes, few seeds, no gain search."""
         return cls(seed=seed, tune_seeds=(0, 1), eval_seeds=(1000, 1001, 1002, 1003), episode_steps=1000,
-                   max_evals=0, candidates=("spring_stiffness_drift", "inertia_error", "coulomb_friction"),
-                   n_fit=2, control_search=False)
+                   tune_steps=1000, max_evals=0, n_fit=2, control_search=False,
+                   candidates=("spring_stiffness_drift", "inertia_error", "coulomb_friction"))
 
 
 # ----------------------------------------------------------------------------- identification
@@ -151,7 +152,7 @@ def controllers(params: dict[str, VsaUT2Params], settings: CloseLoopSettings,
     if settings.control_search and settings.max_evals > 0:
         log("gain search on the NOMINAL env (control) ...")
         r = retune_decoupled(params["nominal"], settings.tune_seeds, max_evals=settings.max_evals,
-                             episode_steps=settings.episode_steps, log=log)
+                             episode_steps=settings.tune_steps, log=log)
         out.append(Controller("nominal_retuned", "retuned on nominal (same search, nominal env)",
                               decoupled_factory(r.config, params["nominal"]), r))
     out.append(Controller("identified_rebuilt", "rebuilt on identified (paper gains, identified model)",
@@ -159,7 +160,7 @@ def controllers(params: dict[str, VsaUT2Params], settings: CloseLoopSettings,
     if settings.max_evals > 0:
         log("gain search on the IDENTIFIED env ...")
         r = retune_decoupled(params["identified"], settings.tune_seeds, max_evals=settings.max_evals,
-                             episode_steps=settings.episode_steps, log=log)
+                             episode_steps=settings.tune_steps, log=log)
         out.append(Controller("identified_retuned", "retuned on identified (rebuild + search, identified env)",
                               decoupled_factory(r.config, params["identified"]), r))
     out.append(Controller("oracle", "oracle: truth model, paper gains (not available in practice)",
@@ -233,8 +234,8 @@ def run(settings: CloseLoopSettings,
         "controllers": {c.key: {"label": c.label, "retune": c.retune.summary() if c.retune else None} for c in ctrls},
         "results": {plant: {k: {m: v for m, v in r.items()} for k, r in rows.items()} for plant, rows in
                     results.items()},
-        "paired_on_truth": {f"{best_id} - nominal_tuned": {m: paired(tr["nominal_tuned"], tr[best_id], m) for m in
-                                                           PAIRED}},
+        "paired_on_truth": {f"{k} - nominal_tuned": {m: paired(tr["nominal_tuned"], tr[k], m) for m in PAIRED}
+                            for k in ("identified_rebuilt", "identified_retuned", "oracle") if k in tr},
         "seconds": time.perf_counter() - t0,
     }
     if "nominal_retuned" in tr:
@@ -264,7 +265,8 @@ def markdown(out: dict[str, Any], command: str) -> str:
     n_eval = len(out["settings"]["eval_seeds"])
     lines += ["", f"On the truth plant (\"measured\"), {n_eval} held-out episode seeds "
               f"{out['settings']['eval_seeds'][0]}-{out['settings']['eval_seeds'][-1]}; gain searches on seeds "
-              f"{out['settings']['tune_seeds'][0]}-{out['settings']['tune_seeds'][-1]} of the named env only:", "",
+              f"{out['settings']['tune_seeds'][0]}-{out['settings']['tune_seeds'][-1]} "
+              f"({out['settings']['tune_steps'] or 'full'} episodes) of the named env only:", "",
               HEADER, "|---|---|---|---|---|---|---|"]
 
     def row(plant: str, key: str) -> str:
@@ -286,28 +288,144 @@ def markdown(out: dict[str, Any], command: str) -> str:
         if c["retune"]:
             s = c["retune"]
             lines.append(f"- {key}: gain multipliers exp({s['log_multipliers'][0]:+.2f}) pivot, "
-                         f"exp({s['log_multipliers'][1]:+.2f}) frame; tuning -return {s['objective_start']:.1f} -> "
-                         f"{s['objective']:.1f} in {s['evaluations']} evaluations ({s['seconds']:.0f} s)")
+                         f"exp({s['log_multipliers'][1]:+.2f}) frame; tuning objective {s['objective_start']:.4f} -> "
+                         f"{s['objective']:.4f} in {s['evaluations']} evaluations ({s['seconds']:.0f} s)")
+    return "\n".join(lines) + "\n"
+
+
+# ----------------------------------------------------------------------------- the eLPAS case (no gain)
+ELPAS_ENV = "vsa_gym/ELPAS-ForceTracking-v0"
+ELPAS_EVAL_SEEDS: tuple[int, ...] = tuple(range(1000, 1008))
+ELPAS_STEPS = 2000  # 2 s episodes (the env's limit is 5 s; the 10 kHz current loop makes each step costly)
+
+
+def cascade_factory(config: Any, design: Any) -> PolicyFactory:
+    """The paper's eLPAS cascade designed with ``design`` (:class:`ElpasParams`), not the env's parameters."""
+    from baselines.elpas_cascade import ElpasCascade
+
+    def make(env: Any) -> Any:
+        task = env.unwrapped.task
+        return ElpasCascade(dataclasses.replace(config, dt=float(task.control_dt)), design,
+                            [c.name for c in task.obs_channels])
+
+    return make
+
+
+def run_elpas(seed: int = 2, log: Callable[[str], None] = print, eval_seeds: Sequence[int] = ELPAS_EVAL_SEEDS,
+              episode_steps: int = ELPAS_STEPS) -> dict[str, Any]:
+    """The same steps on the eLPAS force-tracking rig with a drifted cone spring (``C_a``).
+
+    Identification as in ``tests/identify/test_elpas_effects.py`` (1.5 s sine force test, step test
+    held out, ``Identifier(n_fit=2, max_nfev=15)``).  The cascade uses the model only through its
+    lookup ``gamma_ref(F_ref[, alpha])``; at ``alpha = 0`` ``C_a`` does not enter it, so only the
+    alpha-compensated 3-D lookup can use the identified spring rate: it is rebuilt on the nominal,
+    identified and truth (oracle) parameters and run on the truth rig with the paper's 2-D cascade
+    for reference.  No gain search.
+    """
+    from baselines.elpas_cascade import ElpasCascadeConfig
+    from vsa_gym.identify.elpas_adapter import ElpasAdapter
+    from vsa_gym.identify.synthetic_elpas import make_elpas_record
+
+    t0 = time.perf_counter()
+    rec, truth = make_elpas_record(seed, "spring_stiffness_drift", "sine", duration=1.5)
+    test, _ = make_elpas_record(seed + 1000, "spring_stiffness_drift", "step", duration=1.5, truth=truth["params"])
+    res = Identifier(n_fit=2, max_nfev=15).fit(rec, test).result_
+    assert res is not None
+    ad = res.adapter
+    if not isinstance(ad, ElpasAdapter):
+        raise TypeError(f"expected an eLPAS adapter, got {type(ad).__name__}")
+    t_id = time.perf_counter() - t0
+    for line in res.statements():
+        log(f"identified: {line}")
+    params = {"nominal": ad.nominal, "truth": ad.identified_params(truth["params"]),
+              "identified": ad.identified_params(res.final.theta())}
+    kw = {"control_mode": "current"}
+    paper = ElpasCascadeConfig()
+    comp = ElpasCascadeConfig(alpha_compensation=True)
+    ctrls = {"paper_2d": ("paper cascade, 2-D lookup (C_a does not enter it)", cascade_factory(paper,
+                                                                                               params["nominal"])),
+             "comp_nominal": ("3-D lookup built on nominal", cascade_factory(comp, params["nominal"])),
+             "comp_identified": ("3-D lookup rebuilt on identified", cascade_factory(comp, params["identified"])),
+             "comp_oracle": ("3-D lookup on the truth (oracle)", cascade_factory(comp, params["truth"]))}
+    traces, results = {}, {}
+    for name in ("truth", "nominal", "identified"):
+        row = evaluate_policy(ELPAS_ENV, ctrls["paper_2d"][1], eval_seeds, episode_steps=episode_steps,
+                              env_kwargs={**kw, "params": params[name]}, return_traces=True)
+        traces[name] = row["traces"]["force_error"]
+        if name == "truth":
+            results["paper_2d"] = row
+    gap = {n: float(np.sqrt(np.nanmean((traces[n] - traces["truth"]) ** 2))) for n in ("nominal", "identified")}
+    log(f"closed-loop force gap to the truth rig (N): {gap}")
+    for key in ("comp_nominal", "comp_identified", "comp_oracle"):
+        results[key] = evaluate_policy(ELPAS_ENV, ctrls[key][1], eval_seeds, episode_steps=episode_steps,
+                                       env_kwargs={**kw, "params": params["truth"]})
+    keys = ("force_rms_N", "energy_J", "return", "violations")
+    table = {k: {"label": ctrls[k][0], **{m: float(r[m]) for m in keys}, "per_episode": r["per_episode"]}
+             for k, r in results.items()}
+    for r in table.values():
+        log(f"truth rig  {r['label']}: " + ", ".join(f"{m} {r[m]:.4g}" for m in keys))
+    return {"case": {"env_id": ELPAS_ENV, "effect": "spring_stiffness_drift", "record_seed": seed,
+                     "planted": truth["params"]},
+            "identification": {"statements": res.statements(), "effects": res.effects, "seconds": t_id},
+            "params": {k: {"cone.C_a": float(p.cone.C_a)} for k, p in params.items()},
+            "plant_gap_force_N": gap, "eval_seeds": list(eval_seeds), "episode_steps": episode_steps,
+            "results": table,
+            "paired_on_truth": {"comp_identified - comp_nominal": {
+                m: paired(table["comp_nominal"], table["comp_identified"], m) for m in ("force_rms_N", "energy_J")}},
+            "seconds": time.perf_counter() - t0}
+
+
+def markdown_elpas(out: dict[str, Any], command: str) -> str:
+    """The eLPAS table (``close_loop_elpas.md``)."""
+    case = out["case"]
+    drift = case["planted"]["spring_stiffness_drift.drift"]
+    n = len(out["eval_seeds"])
+    lines = [f"Command: `{command}` ({out['seconds']:.0f} s).", "",
+             f"Truth rig: eLPAS cone spring rate `C_a` drifted by {100 * drift:+.1f} % (record seed "
+             f"{case['record_seed']}).  Identified: {out['identification']['statements'][0]}.  Closed-loop force gap "
+             f"to the truth rig (paper cascade, same seeds): nominal {out['plant_gap_force_N']['nominal']:.1f} N, "
+             f"identified {out['plant_gap_force_N']['identified']:.1f} N.", "",
+             f"On the truth rig (`{case['env_id']}`, current mode), {n} held-out episode seeds of "
+             f"{out['episode_steps']} steps:", "",
+             "| controller | force RMS (N) | energy (J) | return | episodes ended early |", "|---|---|---|---|---|"]
+    for r in out["results"].values():
+        lines.append(f"| {r['label']} | {r['force_rms_N']:.1f} | {r['energy_J']:.1f} | {r['return']:.1f} | "
+                     f"{int(round(r['violations']))} / {n} |")
+    for name, d in out["paired_on_truth"].items():
+        lines.append("")
+        lines.append(f"Paired, {name}: " + "; ".join(
+            f"{m} {v['mean']:+.4g} +- {v['se']:.2g} (better in {v['better_in']}/{v['episodes']})"
+            for m, v in d.items()))
     return "\n".join(lines) + "\n"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="out/identify_close_loop", help="output folder (JSON + markdown)")
-    ap.add_argument("--seed", type=int, default=1, help="seed of the measured record (the planted drift)")
+    ap.add_argument("--seed", type=int, default=None,
+                    help="seed of the measured record, i.e. of the planted drift (default 1; eLPAS: 2)")
     ap.add_argument("--quick", action="store_true", help="the test's < 1 min version (no gain search)")
+    ap.add_argument("--case", choices=("vsaut2", "elpas"), default="vsaut2",
+                    help="vsaut2: the documented case; elpas: the force-tracking rig (no gain, see run_elpas)")
     args = ap.parse_args(argv)
-    settings = CloseLoopSettings.quick(args.seed) if args.quick else CloseLoopSettings(seed=args.seed)
-    out, _ = run(settings)
-    cmd = "python -m benchmarks.identify_close_loop" + (f" --seed {args.seed}" if args.seed != 1 else "") + \
-        (" --quick" if args.quick else "")
-    md = markdown(out, cmd)
     d = Path(args.out)
     d.mkdir(parents=True, exist_ok=True)
-    (d / "close_loop.json").write_text(json.dumps(out, indent=1, default=float))
-    (d / "close_loop.md").write_text(md)
+    if args.case == "elpas":
+        seed = 2 if args.seed is None else args.seed
+        out = run_elpas(seed)
+        cmd = "python -m benchmarks.identify_close_loop --case elpas" + (f" --seed {seed}" if seed != 2 else "")
+        md, stem = markdown_elpas(out, cmd), "close_loop_elpas"
+    else:
+        seed = 1 if args.seed is None else args.seed
+        settings = CloseLoopSettings.quick(seed) if args.quick else CloseLoopSettings(seed=seed)
+        out, _ = run(settings)
+        cmd = "python -m benchmarks.identify_close_loop" + (f" --seed {seed}" if seed != 1 else "") + \
+            (" --quick" if args.quick else "")
+        md, stem = markdown(out, cmd), "close_loop"
+    (d / f"{stem}.json").write_text(json.dumps(out, indent=1, default=float))
+    (d / f"{stem}.md").write_text(md)
     print(md)
-    print(f"wrote {d / 'close_loop.json'} and {d / 'close_loop.md'}")
+    print(f"wrote {d / (stem + '.json')} and {d / (stem + '.md')}")
     return 0
 
 

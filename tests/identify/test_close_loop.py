@@ -70,3 +70,30 @@ def test_report_tables(quick):
     md = markdown(quick, "python -m benchmarks.identify_close_loop --quick")
     assert "| identified |" in md and "tuned on nominal" in md
     assert md.count("\n| ") >= 8
+
+
+def test_search_objective_prices_episodes_that_end_early():
+    """The plain return prefers an episode that fails early (it stops accumulating tracking cost); the
+    search objective must not."""
+    from baselines.retune import objective
+
+    steady = {"return": -500.0, "steps": 1000.0, "violations": 0, "episodes": 4}
+    failing = {"return": -400.0, "steps": 600.0, "violations": 2, "episodes": 4}
+    assert failing["return"] > steady["return"]
+    assert objective(failing) > objective(steady)
+
+
+def test_gain_multipliers_scale_only_their_group():
+    from baselines.retune import GAIN_GROUPS, LOG_BOUND, scaled_config
+    from baselines.vsaut2_decoupled import VsaUT2DecoupledConfig
+
+    base = VsaUT2DecoupledConfig()
+    assert scaled_config(base, [0.0, 0.0]) == base
+    c = scaled_config(base, [np.log(2.0), 10.0])
+    for name in GAIN_GROUPS[0]:
+        assert getattr(c, name) == pytest.approx(2.0 * getattr(base, name))
+    for name in GAIN_GROUPS[1]:
+        assert getattr(c, name) == pytest.approx(np.exp(LOG_BOUND) * getattr(base, name))  # clipped
+    assert c.int_max == base.int_max and c.deflection_filter_hz == base.deflection_filter_hz
+    with pytest.raises(ValueError):
+        scaled_config(base, [0.0])
