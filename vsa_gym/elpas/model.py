@@ -479,6 +479,14 @@ def _integrate_any(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np
     return _integrate(p, rhs_fn, x, rate_inputs, extensions, n_sub)
 
 
+@numba.njit(cache=True)
+def _reversals_compiled(w0: np.ndarray, w1: np.ndarray, p: _ElpasT, h: float) -> np.ndarray:
+    """Rows to refine in :func:`_advance`: the speed changes sign and ``lambda h > REVERSAL_RATE_H`` at either end."""
+    fast = np.maximum(bristle_rate(p.friction, p.drive.N * w0),
+                      bristle_rate(p.friction, p.drive.N * w1)) * h > REVERSAL_RATE_H
+    return (np.sign(w0) != np.sign(w1)) & fast
+
+
 def _advance(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarray,
              extensions: Extensions, compiled: bool) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_integrate` with ``n_sub`` substeps; rows whose speed reverses are redone finer.
@@ -493,9 +501,13 @@ def _advance(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarr
     x_new, energy = _integrate_any(p, rhs_fn, x, rate_inputs, extensions, n_sub, compiled)
     # only reversals through bristle rates that matter within a substep (not presliding creep)
     h = float(p.numerics.dt) / n_sub
-    fast = np.maximum(bristle_rate(p.friction, p.drive.N * x[:, OMEGA]),
-                      bristle_rate(p.friction, p.drive.N * x_new[:, OMEGA])) * h > REVERSAL_RATE_H
-    rev = (np.sign(x[:, OMEGA]) != np.sign(x_new[:, OMEGA])) & fast
+    if compiled:  # the same test in one compiled call (the numpy one costs as much as the step at n = 1)
+        rev = _reversals_compiled(np.ascontiguousarray(x[:, OMEGA]), np.ascontiguousarray(x_new[:, OMEGA]),
+                                  _params_tuple(p, x.shape[0]), h)
+    else:
+        fast = np.maximum(bristle_rate(p.friction, p.drive.N * x[:, OMEGA]),
+                          bristle_rate(p.friction, p.drive.N * x_new[:, OMEGA])) * h > REVERSAL_RATE_H
+        rev = (np.sign(x[:, OMEGA]) != np.sign(x_new[:, OMEGA])) & fast
     if np.any(rev):
         rows = np.flatnonzero(rev)
         p_rows = take_rows(p, rows) if p.batch_size is not None else p
@@ -533,6 +545,13 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
     n = x.shape[0]
     inputs = _check_inputs(inputs, n, ("voltage", "alpha"))
     check_angles(p.cone, alpha=inputs[:, IN_ALPHA])
+    return _step_rig_valid(p, x, inputs, extensions, compiled)
+
+
+def _step_rig_valid(p: ElpasParams, x: np.ndarray, inputs: np.ndarray, extensions: Extensions = (),
+                    compiled: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`step_rig` without its input checks, for callers whose inputs are valid by construction
+    (the environments: float64 ``x`` and finite ``inputs`` ``(n, 2)``, alpha within its range)."""
     dt = float(p.numerics.dt)
     rates_in = inputs.copy()
     rates_in[:, IN_ALPHA] = (inputs[:, IN_ALPHA] - x[:, ALPHA]) / dt
@@ -558,6 +577,12 @@ def step_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
     x = _check_state("x (vehicle state)", x, N_VEHICLE + total_states(extensions))
     n = x.shape[0]
     inputs = _check_inputs(inputs, n, ("voltage", "road height"))
+    return _step_vehicle_valid(p, x, inputs, extensions, compiled)
+
+
+def _step_vehicle_valid(p: ElpasParams, x: np.ndarray, inputs: np.ndarray, extensions: Extensions = (),
+                        compiled: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`step_vehicle` without its input checks (as :func:`_step_rig_valid`); the result is still checked."""
     dt = float(p.numerics.dt)
     rates_in = inputs.copy()
     rates_in[:, IN_ROAD] = (inputs[:, IN_ROAD] - x[:, Y_R]) / dt
