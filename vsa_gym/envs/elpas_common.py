@@ -195,7 +195,9 @@ class ElpasTask(BatchedTask):
     def _physics(self, a: np.ndarray, second_end: np.ndarray) -> np.ndarray:
         """One control step; ``second_end`` is alpha (rig) or road height (vehicle) at the end. Returns E_el (J)."""
         p = self.params
-        step: Callable[..., tuple[np.ndarray, np.ndarray]] = em.step_vehicle if self.vehicle else em.step_rig
+        # the cores' steps without their input checks: x, the commands and alpha/road are valid by construction
+        step: Callable[..., tuple[np.ndarray, np.ndarray]] = (em._step_vehicle_valid if self.vehicle
+                                                               else em._step_rig_valid)
         col = em.Y_R if self.vehicle else em.ALPHA
         x = self.s["x"]
         start = x[:, col].copy()

@@ -41,6 +41,7 @@ class SegmentReference:
         self.duration, self.freq = duration, freq
         self.kinds = np.array([KIND_NAMES.index(k) for k in kinds])
         self.zero_prob = zero_prob  # probability that a step segment holds 0 (for disturbances)
+        self._keys = tuple(f"{prefix}_{name}" for name in ("kind", "t0", "T", "v0", "v1", "A", "f"))
 
     def alloc(self, s: dict[str, np.ndarray], n: int) -> None:
         for name in ("kind", "t0", "T", "v0", "v1", "A", "f"):
@@ -70,8 +71,9 @@ class SegmentReference:
         self.start(s, rows, rngs, np.zeros(len(rows)), v)
 
     def _cols(self, s: dict[str, np.ndarray], rows: np.ndarray | slice) -> tuple[np.ndarray, ...]:
-        p = self.prefix
-        return tuple(s[f"{p}_{name}"][rows] for name in ("kind", "t0", "T", "v0", "v1", "A", "f"))
+        if isinstance(rows, slice):
+            return tuple(s[k] for k in self._keys)
+        return tuple(s[k][rows] for k in self._keys)
 
     def value(self, s: dict[str, np.ndarray], t: np.ndarray, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
         """Value of the current segments of ``rows`` at times ``t`` (compiled; one call, no temporaries)."""

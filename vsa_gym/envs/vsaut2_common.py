@@ -220,7 +220,7 @@ class VsaUT2Task(BatchedTask):
             u = a * self._cols()["U_max"]
             if enabled is not None:
                 u = np.where(enabled[:, None], u, 0.0)
-            x, e_sum = self.model.step(x, u, tau_ext, self.control_dt)
+            x, e_sum = self.model._step_valid(x, u, tau_ext, self.control_dt)  # inputs valid by construction
         else:
             i_ref = a * self._cols()["I_max"]
             e_sum = np.zeros((self.n, len(POWER)))
@@ -234,7 +234,7 @@ class VsaUT2Task(BatchedTask):
                 ], axis=1)
                 if enabled is not None:
                     u = np.where(enabled[:, None], u, 0.0)
-                x, e = self.model.step(x, u, tau_ext, dt, n_sub=1)
+                x, e = self.model._step_valid(x, u, tau_ext, dt, n_sub=1)
                 e_sum = e_sum + e
         self.s["x"] = x
         e_m = e_sum[:, [POWER["el_pivot"], POWER["el_frame"]]]
