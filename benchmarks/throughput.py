@@ -22,6 +22,9 @@ Measures, in one process on one machine:
   replaying 20 s at 1 kHz, in simulated seconds per wall second;
 * the vsaUT-II ids again with the opt-in exponential integrator (``integrator="etd"``): single env at
   1 ms, vector at the largest ``n``, and its Radau error (``etd`` keys);
+* the vsaUT-II core alone (``VsaUT2Model.step``, a 2 ms step, both integrators, n = 1 and the largest
+  ``n``): rows per second, right-hand-side evaluations per step and CPU time per evaluation and row, the
+  figures that bound what any environment on this core can reach (``core``);
 * peak resident memory of the process;
 * each environment's core at the environment's control step against the Radau reference
   (rtol 1e-9 for the vsaUT-II, 1e-7 for the eLPAS, as their tests), as the worst state
@@ -154,6 +157,34 @@ def measure_vector(env_id: str, n: int, window_s: float, **kwargs: Any) -> dict[
     rate, cpu_rate = _rate(call, window_s)
     env.close()
     return {"steps_per_s": rate, "steps_per_cpu_s": cpu_rate}
+
+
+def measure_core(window_s: float, sizes: tuple[int, ...]) -> dict[str, Any]:
+    """The vsaUT-II core alone: a 2 ms ``step`` of ``n`` rows, held inputs, per integrator.
+
+    ``cpu_us_per_rhs_row`` = CPU time per step / (rows x RHS evaluations per step): the cost of one
+    evaluation of the equations of motion for one row, all threads counted.
+    """
+    from vsa_gym.vsaut2.model import ETD_SUBSTEPS_PER_MS, SUBSTEPS_PER_MS, VsaUT2Model
+
+    out: dict[str, Any] = {}
+    for integ, per_ms in (("rk4", SUBSTEPS_PER_MS), ("etd", ETD_SUBSTEPS_PER_MS)):
+        model = VsaUT2Model(integrator=integ)
+        for n in sizes:
+            x = model.initial_state(n, q1=0.02)
+            u, tau = np.full((n, 2), 5.0), np.zeros(n)
+            model.step(x, u, tau, 2e-3)
+
+            def call(model: Any = model, x: np.ndarray = x, u: np.ndarray = u, tau: np.ndarray = tau,
+                     n: int = n) -> int:
+                model.step(x, u, tau, 2e-3)
+                return n
+
+            rate, cpu_rate = _rate(call, window_s)
+            n_rhs = 4 * int(np.ceil(2.0 * per_ms))
+            out[f"{integ}_n{n}"] = {"integrator": integ, "n": n, "rows_per_s": rate, "rows_per_cpu_s": cpu_rate,
+                                    "rhs_per_step": n_rhs, "cpu_us_per_rhs_row": 1e6 / (cpu_rate * n_rhs)}
+    return out
 
 
 # ----------------------------------------------------------------------------- accuracy against Radau
@@ -353,6 +384,12 @@ def markdown(res: dict[str, Any]) -> str:
     else:
         lines.append(f"| identification | not measured: {idr.get('identify_reason')} |")
     lines.append(f"| peak RSS of the benchmark process | {res['peak_rss_mib']:.0f} MiB |")
+    lines += ["", "| vsaUT-II core alone, 2 ms step | rows x steps/s (wall) | per CPU s | RHS evaluations per step "
+              "| CPU us per RHS and row | 2-core ceiling if the env cost nothing |", "|---|---|---|---|---|---|"]
+    for c in res.get("core", {}).values():
+        ceiling = 2e6 / (c["cpu_us_per_rhs_row"] * c["rhs_per_step"])
+        lines.append(f"| `{c['integrator']}`, n={c['n']} | {_fmt(c['rows_per_s'])} | {_fmt(c['rows_per_cpu_s'])} | "
+                     f"{c['rhs_per_step']} | {c['cpu_us_per_rhs_row']:.2f} | {_fmt(ceiling)} env-steps/s |")
     return "\n".join(lines)
 
 
@@ -377,6 +414,7 @@ def run(quick: bool = False, ids: list[str] | None = None, sizes: tuple[int, ...
     res["vector_env_steps_per_s_by_id"] = by_id
     res["vector_env_steps_per_s"] = by_id.get(HEADLINE_ID, next(iter(by_id.values())))
     res["vector_headline_id"] = HEADLINE_ID if HEADLINE_ID in by_id else ids[0]
+    res["core"] = measure_core(window, (1, max(sizes)))
     res["identification"] = measure_identification(2.0 if quick else 20.0, window)
     res["identify_20s_record_wall_s"] = (res["identification"].get("identify_wall_s") if not quick else None)
     res["accuracy"] = {i: accuracy(i, 20 if quick else 100) for i in ids}
