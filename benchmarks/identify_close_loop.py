@@ -1,6 +1,6 @@
 """Close the loop (issue #7, item 5): identify, rebuild the environment, retune, measure on the "measured" plant.
 
-``python -m benchmarks.identify_close_loop [--out DIR] [--seed S] [--quick] [--case vsaut2|elpas]``
+``python -m benchmarks.identify_close_loop [--out DIR] [--seed S] [--experiment E] [--quick] [--case vsaut2|elpas]``
 
 The case: the vsaUT-II with a drifted lever spring (``spring_stiffness_drift``: ``lever.k`` off by
 +-6 ... 15 %, the range of :data:`vsa_gym.identify.synthetic_vsaut2.RANGES`; seed 1: +10.6 %).  The
@@ -76,6 +76,7 @@ class CloseLoopSettings:
     """Budget of one run (the defaults are the documented run; :meth:`quick` is the test's)."""
 
     seed: int = 1
+    experiment: str = EXPERIMENT  # the record: "free_oscillation" (Fig. 10) or "torque_sweep" (Fig. 11)
     tune_seeds: tuple[int, ...] = TUNE_SEEDS
     eval_seeds: tuple[int, ...] = EVAL_SEEDS
     episode_steps: int | None = None  # evaluation episodes; None: the env's 2500 steps (5 s)
@@ -96,7 +97,7 @@ class CloseLoopSettings:
 # ----------------------------------------------------------------------------- identification
 def identify(settings: CloseLoopSettings) -> tuple[IdentificationResult, dict[str, Any], dict[str, VsaUT2Params]]:
     """Steps 1-3: the measured record, the identification, and the nominal / truth / identified parameter sets."""
-    rec, truth = make_vsaut2_record(settings.seed, EXPERIMENT, EFFECT)
+    rec, truth = make_vsaut2_record(settings.seed, settings.experiment, EFFECT)
     ident = Identifier(n_fit=settings.n_fit, candidates=settings.candidates).fit(rec)
     res = ident.result_
     assert res is not None
@@ -222,7 +223,7 @@ def run(settings: CloseLoopSettings,
     best_id = "identified_retuned" if "identified_retuned" in results["truth"] else "identified_rebuilt"
     tr = results["truth"]
     out = {
-        "case": {"env_id": ENV_ID, "experiment": EXPERIMENT, "effect": EFFECT, "record_seed": settings.seed,
+        "case": {"env_id": ENV_ID, "experiment": settings.experiment, "effect": EFFECT, "record_seed": settings.seed,
                  "planted": truth["params"]},
         "settings": dataclasses.asdict(settings),
         "identification": {"statements": res.statements(), "effects": res.effects,
@@ -253,10 +254,13 @@ def markdown(out: dict[str, Any], command: str) -> str:
     """The tables of the docs (``close_loop.md``)."""
     case, ctrls = out["case"], out["controllers"]
     drift = case["planted"].get("spring_stiffness_drift.drift")
+    experiment = case["experiment"].replace("_", " ")
+    st = out["identification"]["statements"]
+    named = "; ".join(st[:-1]) if out["identification"]["effects"] else st[0]
     lines = [f"Command: `{command}` ({out['seconds']:.0f} s).", "",
              f"Truth plant: vsaUT-II, lever spring rate `lever.k` drifted by {100 * drift:+.1f} % "
-             f"(record seed {case['record_seed']}).  Identified from the free-oscillation record: "
-             f"{out['identification']['statements'][0]} ({out['identification']['seconds']:.0f} s).", "",
+             f"(record seed {case['record_seed']}).  Identified from the {experiment} record: {named} "
+             f"({out['identification']['seconds']:.0f} s).", "",
              "| simulator | lever.k (N/m) | closed-loop gap to truth: r RMS (rad) | ln K RMS |",
              "|---|---|---|---|"]
     for name in ("nominal", "identified"):
@@ -406,6 +410,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=None,
                     help="seed of the measured record, i.e. of the planted drift (default 1; eLPAS: 2)")
     ap.add_argument("--quick", action="store_true", help="the test's < 1 min version (no gain search)")
+    ap.add_argument("--experiment", choices=("free_oscillation", "torque_sweep"), default=EXPERIMENT,
+                    help="vsaUT-II record the drift is identified from (Fig. 10 or Fig. 11)")
     ap.add_argument("--case", choices=("vsaut2", "elpas"), default="vsaut2",
                     help="vsaut2: the documented case; elpas: the force-tracking rig (no gain, see run_elpas)")
     args = ap.parse_args(argv)
@@ -419,8 +425,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     else:
         seed = 1 if args.seed is None else args.seed
         settings = CloseLoopSettings.quick(seed) if args.quick else CloseLoopSettings(seed=seed)
+        settings = dataclasses.replace(settings, experiment=args.experiment)
         out, _ = run(settings)
         cmd = "python -m benchmarks.identify_close_loop" + (f" --seed {seed}" if seed != 1 else "") + \
+            (f" --experiment {args.experiment}" if args.experiment != EXPERIMENT else "") + \
             (" --quick" if args.quick else "")
         md, stem = markdown(out, cmd), "close_loop"
     (d / f"{stem}.json").write_text(json.dumps(out, indent=1, default=float))
