@@ -365,11 +365,11 @@ def markdown(res: dict[str, Any]) -> str:
         r1 = e["single_1ms"]
         lines.append(f"| single `{name}`, `integrator=\"etd\"` | 1 ms | {_fmt(r1['steps_per_s'])} | "
                      f"{ratio(r1['steps_per_s'])} | {_fmt(r1['steps_per_cpu_s'])} | "
-                     f"{ratio(r1['steps_per_cpu_s'], peer_cpu)} | {a['worst_relative_state_error']:.1e} |")
-        for n, r in e["vector"].items():
+                     f"{ratio(r1['steps_per_cpu_s'], peer_cpu)} | |")
+        for n, r in e["vector"].items():  # the error is measured at the default control step, as for rk4
             lines.append(f"| vector n={n} `{name}`, `integrator=\"etd\"` | default | {_fmt(r['steps_per_s'])} | "
                          f"{ratio(r['steps_per_s'])} | {_fmt(r['steps_per_cpu_s'])} | "
-                         f"{ratio(r['steps_per_cpu_s'], peer_cpu)} | |")
+                         f"{ratio(r['steps_per_cpu_s'], peer_cpu)} | {a['worst_relative_state_error']:.1e} |")
     idr = res["identification"]
     lines += ["", "| identification | value |", "|---|---|",
               f"| vsaUT-II core replay, n=1, 1 ms steps | {_fmt(idr['vsaut2_replay_sim_s_per_wall_s'])} "
