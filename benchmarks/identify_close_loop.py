@@ -268,10 +268,11 @@ def markdown(out: dict[str, Any], command: str) -> str:
         lines.append(f"| {name} | {out['params'][name]['lever.k']:.1f} | {g['r_rad']:.4f} | {g['lnK']:.4f} |")
     lines.append(f"| truth | {out['params']['truth']['lever.k']:.1f} | 0 | 0 |")
     n_eval = len(out["settings"]["eval_seeds"])
+    tune_len = f"{out['settings']['tune_steps']}-step" if out["settings"]["tune_steps"] else "full"
     lines += ["", f"On the truth plant (\"measured\"), {n_eval} held-out episode seeds "
               f"{out['settings']['eval_seeds'][0]}-{out['settings']['eval_seeds'][-1]}; gain searches on seeds "
               f"{out['settings']['tune_seeds'][0]}-{out['settings']['tune_seeds'][-1]} "
-              f"({out['settings']['tune_steps'] or 'full'} episodes) of the named env only:", "",
+              f"({tune_len} episodes) of the named env only:", "",
               HEADER, "|---|---|---|---|---|---|---|"]
 
     def row(plant: str, key: str) -> str:
