@@ -295,3 +295,20 @@ def test_compiled_vsaut2_sensing_equals_the_sensor_models(randomized: bool) -> N
     expect = np.stack([q1, q2, m[:, 2], *task.s["vel"].T, *task.s["cur"].T, np.log(K)], axis=1)
     np.testing.assert_array_equal(task._common_obs(task._all_rows), expect)
     venv.close()
+
+
+def test_quarter_car_wk_filter_step_equals_scipy_sosfilt() -> None:
+    """The compiled one-sample W_k filter of the quarter-car task is scipy.signal.sosfilt's recursion, bit for bit."""
+    from scipy import signal
+
+    from vsa_gym.envs.elpas_quarter_car import sos_step
+    from vsa_gym.vehicle.comfort import wk_sos
+
+    sos = wk_sos(1000.0)
+    x = np.random.default_rng(0).normal(0.0, 3.0, (3, 300))
+    zi_ref = np.zeros((sos.shape[0], 3, 2))
+    zi = np.zeros((3, sos.shape[0], 2))
+    for k in range(x.shape[1]):
+        y_ref, zi_ref = signal.sosfilt(sos, x[:, k:k + 1], axis=1, zi=zi_ref)
+        np.testing.assert_array_equal(sos_step(sos, x[:, k].copy(), zi), y_ref[:, 0])
+    np.testing.assert_array_equal(zi, np.moveaxis(zi_ref, 0, 1))

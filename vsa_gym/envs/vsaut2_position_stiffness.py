@@ -109,7 +109,10 @@ class PositionStiffnessTask(VsaUT2Task):
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         c = self._common_obs(rows)
         r_ref, k_ref = self.s["r_ref"][rows], self.s["k_ref"][rows]
-        return np.concatenate([c, np.stack([r_ref, k_ref, r_ref - c[:, 2], k_ref - c[:, 8]], axis=1)], axis=1)
+        out = np.empty((c.shape[0], 13))  # the 9 common channels, then r_ref, log_K_ref and the two errors
+        out[:, :9] = c
+        out[:, 9], out[:, 10], out[:, 11], out[:, 12] = r_ref, k_ref, r_ref - c[:, 2], k_ref - c[:, 8]
+        return out
 
     def _traces(self, rows: np.ndarray) -> np.ndarray:
         x = self.s["x"][rows]
