@@ -52,7 +52,8 @@ COLUMNS: dict[str, list[tuple[str, str, str]]] = {
     "vsa_gym/VsaUT2-Throw-v0": [],
 }
 COMMON = [("energy_J", "energy (J)", "{:.2f}"), ("peak_power_W", "peak power (W)", "{:.0f}"),
-          ("violations", "episodes ended by a violation", "{:.2f}"), ("return", "return", "{:.1f}")]
+          ("violations", "episodes ended by a violation", "{:.2f}"), ("steps", "mean episode steps", "{:.0f}"),
+          ("return", "return", "{:.1f}")]
 
 
 def baseline_factories(env_id: str) -> dict[str, tuple[Callable[[Any], Any], dict[str, Any]]]:

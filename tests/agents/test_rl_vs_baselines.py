@@ -18,7 +18,8 @@ def test_interval_is_the_student_t_interval() -> None:
 
 def test_table_rows_and_doc_section(tmp_path: Path) -> None:
     env = "vsa_gym/ELPAS-ForceTracking-v0"
-    metrics = {"force_rms_N": 100.0, "energy_J": 2.0, "peak_power_W": 50.0, "violations": 0, "return": -10.0}
+    metrics = {"force_rms_N": 100.0, "energy_J": 2.0, "peak_power_W": 50.0, "violations": 0, "steps": 50.0,
+               "return": -10.0}
     agents = {"PPO": [{"cpu_min": 1.0 + s, "metrics": {**metrics, "force_rms_N": 100.0 + s}} for s in range(3)]}
     base = {"cascade": [dict(metrics, force_rms_N=50.0, episodes=2)]}
     t = table(env, agents, base)
