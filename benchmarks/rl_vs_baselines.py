@@ -139,7 +139,7 @@ def pareto_plot(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict
     from baselines.metrics import PRIMARY_METRIC
 
     key = PRIMARY_METRIC[env_id]
-    fig, ax = plt.subplots(figsize=(6.0, 4.2), dpi=110)
+    fig, ax = plt.subplots(figsize=(6.4, 5.4), dpi=110)
     markers = iter("sD^vP*X")
     for name, rows in base.items():
         e, y = [r["energy_J"] for r in rows], [r[key] for r in rows]
@@ -158,7 +158,7 @@ def pareto_plot(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict
     ax.set_ylabel(key + (" (higher is better)" if key == "return" else " (lower is better)"))
     ax.set_title(env_id.split("/")[1])
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=6.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1)
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out)
@@ -220,7 +220,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--eval-freq", type=int, default=25_000)
     ap.add_argument("--reuse-baselines", action="store_true",
                     help="take the baselines' episodes from the previous docs/agents_results.json")
+    ap.add_argument("--replot", action="store_true",
+                    help="only redraw docs/img/pareto_*.png from docs/agents_results.json (no training)")
     a = ap.parse_args(argv)
+    if a.replot:
+        rec = read_json(Path(a.docs) / "agents_results.json", {}) or {}
+        for env_id, r in rec.get("envs", {}).items():
+            out = Path(a.docs) / "img" / f"pareto_{env_id.split('/')[1]}.png"
+            pareto_plot(env_id, r["agents"], r["baselines"], out)
+        return 0
     if len(a.seeds) < 3:
         print("note: fewer than 3 seeds give no meaningful interval", file=sys.stderr)
     from agents.sweep import make_trials, run_sweep
