@@ -58,6 +58,7 @@ def _meta(experiment: str, description: str, **extra: object) -> dict:
         "replay": "open_loop",
         "model": {
             "motion": "rotational",
+            "units": {"position": "au s", "force": "au/s"},
             "params": {"m": 1.0, "b": _ALPHA, "k_u": _GAIN * _ALPHA, "tau_e": 0.01, "k_c": _W0**2 * m_red,
                        "c_c": 2 * _XI * _W0 * m_red, "frac_m": 0.5, "v_eps": 0.01},
             "free": {"b": [0.5, 50.0], "k_u": [0.5, 100.0], "tau_e": [0.005, 0.5], "k_c": [10.0, 1000.0],

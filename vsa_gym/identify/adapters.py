@@ -169,6 +169,9 @@ class DriveAdapter(Adapter):
     def _effects(self) -> dict[str, EffectSpec]:
         F, v, m = self.F_ref, self.v_ref, float(self.params.m)
         lin, rot = ("rad", "N m") if self.rot else ("m", "N")
+        # a model in arbitrary units (CED: speed in au, unit inertia) names its own units
+        units = self.record.model.get("units", {})
+        lin, rot = str(units.get("position", lin)), str(units.get("force", rot))
         free = {b.name for b in self.base}
         where = "at the load"
         eff: dict[str, EffectSpec] = {}
