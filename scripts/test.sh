@@ -4,4 +4,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/setup.sh
 ruff check vsa_gym agents baselines benchmarks tests
-python -m pytest -q "$@"
+python -m pytest "$@"   # -q comes from pyproject addopts (a second -q would hide the "N passed" line)
