@@ -34,7 +34,7 @@ from numba.extending import register_jitable
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, lowpass_gain
 from vsa_gym.envs.task import BatchedTask, ControlMode, ObsChannel, RegenPolicy
-from vsa_gym.physics.belt import belt_stiffness_at_frame
+from vsa_gym.physics.belt import belt_stiffness_at_frame, series_stiffness
 from vsa_gym.physics.dc_motor import current_control_voltage
 from vsa_gym.physics.lever import lever_ratio, spring_stiffness
 from vsa_gym.physics.pivot import pivot_position
@@ -48,6 +48,7 @@ K_FLOOR = 0.1  # N m/rad, floor of the stiffness before taking its log (eq. 6 tu
 # eq. (6) of the lever, made callable from the compiled sensing below (the same functions, not a copy)
 register_jitable(lever_ratio)
 register_jitable(spring_stiffness)
+register_jitable(series_stiffness)
 
 
 class VsaUT2Task(BatchedTask):
@@ -340,7 +341,7 @@ def _common_obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, P: np.n
         q1 = pivot_position(p.pivot, meas[i, 0] / p.pivot_gearbox.n)
         q2 = meas[i, 1] / ratio[i]
         K_s = spring_stiffness(p.lever, q1, meas[i, 2] - q2)
-        K = max(K_s * K_b[i] / (K_s + K_b[i]), K_FLOOR) if K_s > 0 else K_FLOOR
+        K = max(series_stiffness(K_s, K_b[i]), K_FLOOR) if K_s > 0 else K_FLOOR
         out[j, 0], out[j, 1], out[j, 2] = q1, q2, meas[i, 2]
         out[j, 3], out[j, 4], out[j, 5] = vel[i, 0], vel[i, 1], vel[i, 2]
         out[j, 6], out[j, 7], out[j, 8] = cur[i, 0], cur[i, 1], np.log(K)
@@ -354,7 +355,7 @@ def _true_stiffness(x: np.ndarray, P: np.ndarray, K_b: np.ndarray) -> np.ndarray
     for i in range(x.shape[0]):
         p = _P_ROW(P, i)
         K_s = spring_stiffness(p.lever, pivot_position(p.pivot, x[i, 1] / p.pivot_gearbox.n), x[i, 8] - x[i, 6])
-        out[i] = K_s * K_b[i] / (K_s + K_b[i])
+        out[i] = series_stiffness(K_s, K_b[i])
     return out
 
 

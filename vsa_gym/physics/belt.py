@@ -64,3 +64,12 @@ def belt_force(p: BeltParams, delta: np.ndarray) -> np.ndarray:
 def belt_stiffness_at_frame(p: BeltParams) -> float | np.ndarray:
     """Rotational stiffness of the belt seen at the frame, ``C_belt r_op^2`` (N m/rad)."""
     return p.C_belt * p.r_op**2
+
+
+def series_stiffness(K_spring: float | np.ndarray, K_belt: float | np.ndarray) -> float | np.ndarray:
+    """Output stiffness of the lever springs in series with the belt, ``K_s K_b / (K_s + K_b)`` (N m/rad).
+
+    Element-wise; ``K_spring`` is eq. (6) at the current deflection, ``K_belt`` is
+    :func:`belt_stiffness_at_frame`.  The belt caps the output stiffness (the paper's 948 N m/rad).
+    """
+    return K_spring * K_belt / (K_spring + K_belt)

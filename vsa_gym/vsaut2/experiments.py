@@ -168,7 +168,7 @@ def fig13_workspace(model: VsaUT2Model, n_points: int = 120) -> Workspace:
     spring_tau = p.lever.k * lrho**2 * np.sin(2 * phi_lim)
     drive = frame_drive_peak_torque(model)
     K_s = spring_stiffness(p.lever, q1)
-    from vsa_gym.physics.belt import belt_stiffness_at_frame
+    from vsa_gym.physics.belt import belt_stiffness_at_frame, series_stiffness
 
-    K_b = float(belt_stiffness_at_frame(p.belt))
-    return Workspace(np.minimum(spring_tau, drive), K_s * K_b / (K_s + K_b), spring_tau, drive)
+    K = series_stiffness(K_s, float(belt_stiffness_at_frame(p.belt)))
+    return Workspace(np.minimum(spring_tau, drive), K, spring_tau, drive)

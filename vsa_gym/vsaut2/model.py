@@ -64,7 +64,7 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from vsa_gym.physics.belt import belt_force, belt_stiffness_at_frame, input_pulley_radius
+from vsa_gym.physics.belt import belt_force, belt_stiffness_at_frame, input_pulley_radius, series_stiffness
 from vsa_gym.physics.contact import two_sided_stop
 from vsa_gym.physics.dc_motor import applied_voltage, current_derivative, shaft_torque
 from vsa_gym.physics.gearbox import input_torque
@@ -398,8 +398,7 @@ class VsaUT2Model:
         K_s = spring_stiffness(p.lever, self.pivot_position(x), x[..., 8] - x[..., 6])
         if not with_belt:
             return K_s
-        K_b = belt_stiffness_at_frame(p.belt)
-        return K_s * K_b / (K_s + K_b)
+        return series_stiffness(K_s, belt_stiffness_at_frame(p.belt))
 
     def output_torque(self, x: np.ndarray) -> np.ndarray:
         """Elastic torque the lever applies to the output (N m), ``(n,)``."""
