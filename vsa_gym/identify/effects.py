@@ -13,6 +13,7 @@ physics parameters (as in mujoco.sysid).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -115,3 +116,22 @@ def sensor_specs(column: str, y_scale: float, dt: float, duration: float) -> dic
         "sensor_delay": EffectSpec("sensor_delay", loc,
                                    (ParamSpec("delay", "s", 0.0, min(0.05 * duration, 50 * dt), 0.0, 2 * dt),)),
     }
+
+
+def draw_planted_effect(effect: str | None, ranges: Mapping[str, tuple[float, float]], signed: bool,
+                        rng: np.random.Generator) -> dict[str, float]:
+    """A random magnitude for each parameter of a planted ``effect`` (synthetic records).
+
+    Each parameter ``k`` is drawn uniformly from ``ranges[k] = (lo, hi)``; when ``signed`` its sign
+    is then flipped with probability 1/2.  Returns ``{"<effect>.<k>": value}`` (empty when ``effect``
+    is None), the truth the identifier must recover.
+    """
+    if effect is None:
+        return {}
+    out = {}
+    for k, (lo, hi) in ranges.items():
+        v = float(rng.uniform(lo, hi))
+        if signed and rng.random() < 0.5:
+            v = -v
+        out[f"{effect}.{k}"] = v
+    return out

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from vsa_gym.identify.adapters import DriveAdapter
+from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.record import FORMAT, Record, load_record
 
 #: realistic magnitude ranges per effect of the drive (sign drawn at random where marked +-)
@@ -64,15 +65,8 @@ def _input(rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
 
 
 def draw_effect(effect: str | None, rng: np.random.Generator) -> dict[str, float]:
-    if effect is None:
-        return {}
-    out = {}
-    for k, (lo, hi) in DRIVE_RANGES[effect].items():
-        v = float(rng.uniform(lo, hi))
-        if effect in SIGNED and rng.random() < 0.5:
-            v = -v
-        out[f"{effect}.{k}"] = v
-    return out
+    """A random magnitude of ``effect`` from :data:`DRIVE_RANGES` (see :func:`draw_planted_effect`)."""
+    return draw_planted_effect(effect, DRIVE_RANGES[effect] if effect else {}, effect in SIGNED, rng)
 
 
 def make_drive_record(seed: int, effect: str | None = "random", duration: float = 4.0, dt: float = 1e-3,

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.elpas_adapter import ElpasAdapter
 from vsa_gym.identify.record import FORMAT, Record, load_record
 
@@ -77,15 +78,8 @@ def hydropulse_alpha(rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
 
 
 def draw_effect(effect: str | None, rng: np.random.Generator) -> dict[str, float]:
-    if effect is None:
-        return {}
-    out = {}
-    for k, (lo, hi) in ELPAS_RANGES[effect].items():
-        v = float(rng.uniform(lo, hi))
-        if effect in SIGNED and rng.random() < 0.5:
-            v = -v
-        out[f"{effect}.{k}"] = v
-    return out
+    """A random magnitude of ``effect`` from :data:`ELPAS_RANGES` (see :func:`draw_planted_effect`)."""
+    return draw_planted_effect(effect, ELPAS_RANGES[effect] if effect else {}, effect in SIGNED, rng)
 
 
 def make_elpas_record(seed: int, effect: str | None = "random", kind: str = "sine", duration: float = 3.0,

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.record import FORMAT, Record, load_record, write_record
 from vsa_gym.identify.vsaut2_adapter import Vsaut2Adapter
 from vsa_gym.physics.lever import pivot_for_stiffness
@@ -118,13 +119,7 @@ def draw_effect(experiment: str, effect: str | None, rng: np.random.Generator) -
         return {}
     if effect not in RANGES[experiment]:
         raise ValueError(f"no realistic range for {effect!r} in {experiment!r}; have {sorted(RANGES[experiment])}")
-    out = {}
-    for k, (lo, hi) in RANGES[experiment][effect].items():
-        v = float(rng.uniform(lo, hi))
-        if effect in SIGNED and rng.random() < 0.5:
-            v = -v
-        out[f"{effect}.{k}"] = v
-    return out
+    return draw_planted_effect(effect, RANGES[experiment][effect], effect in SIGNED, rng)
 
 
 def make_vsaut2_record(seed: int, experiment: str = "free_oscillation", effect: str | None = "random",
