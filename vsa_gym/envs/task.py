@@ -223,6 +223,9 @@ class BatchedTask(ABC):
     def _set_channels(self, channels: list[ObsChannel]) -> None:
         """Fix the observation layout and allocate the per-task arrays (call at the end of ``__init__``)."""
         self._channels = tuple(channels)
+        # float64 bounds for _clip_obs, derived once: the channels are fixed per instance
+        self._obs_lo64 = self.obs_low.astype(np.float64)
+        self._obs_hi64 = self.obs_high.astype(np.float64)
         self._alloc(len(self._channels))
 
     def _alloc(self, n_obs: int) -> None:
@@ -233,11 +236,7 @@ class BatchedTask(ABC):
         self.s["hist_pos"] = np.zeros(self.n, dtype=np.intp)
 
     def _clip_obs(self, obs: np.ndarray) -> np.ndarray:
-        bounds = self.__dict__.get("_obs_bounds64")
-        if bounds is None or bounds[0] is not self.obs_channels:  # the channels are fixed per instance
-            bounds = (self.obs_channels, self.obs_low.astype(np.float64), self.obs_high.astype(np.float64))
-            self._obs_bounds64 = bounds
-        return np.minimum(np.maximum(obs, bounds[1]), bounds[2]).astype(np.float32)  # np.clip, cheaper
+        return np.minimum(np.maximum(obs, self._obs_lo64), self._obs_hi64).astype(np.float32)  # np.clip, cheaper
 
     def _record(self, rows: np.ndarray) -> None:
         if not self.trace_names or not self.record_history:

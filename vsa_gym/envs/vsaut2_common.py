@@ -32,7 +32,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from vsa_gym.envs.randomization import DomainRandomization
-from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, lowpass_gain
+from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
 from vsa_gym.envs.task import BatchedTask, ControlMode, ObsChannel, RegenPolicy
 from vsa_gym.physics.belt import belt_stiffness_at_frame, series_stiffness
 from vsa_gym.physics.dc_motor import current_control_voltage
@@ -49,6 +49,11 @@ K_FLOOR = 0.1  # N m/rad, floor of the stiffness before taking its log (eq. 6 tu
 register_jitable(lever_ratio)
 register_jitable(spring_stiffness)
 register_jitable(series_stiffness)
+# the sensing updates of sensing.py, compiled for _sense_update (the same functions, not a copy)
+register_jitable(update_velocity)
+register_jitable(i2t_update)
+# state columns (STATE) as constants the compiled sensing can fold
+_I1, _TH1, _I2, _TH2, _Q2, _R = STATE["i1"], STATE["th1"], STATE["i2"], STATE["th2"], STATE["q2"], STATE["r"]
 
 
 class VsaUT2Task(BatchedTask):
@@ -318,15 +323,15 @@ def _sense_update(x: np.ndarray, meas: np.ndarray, vel: np.ndarray, i2t: np.ndar
     ``enc = [motor encoder step, output encoder step, output gain mismatch]`` (step 0: exact angle).
     """
     for i in range(x.shape[0]):
-        for j, col in ((0, 0), (1, 3)):
-            i2t[i, j] = max(i2t[i, j] + (x[i, col] ** 2 - i_nom**2) * dt, 0.0)
+        for j, col in ((0, _I1), (1, _I2)):
+            i2t[i, j] = i2t_update(i2t[i, j], x[i, col] ** 2, i_nom, dt)
         m = np.empty(3)
-        for j, col in ((0, 1), (1, 4)):
+        for j, col in ((0, _TH1), (1, _TH2)):
             m[j] = x[i, col] if enc[0] == 0.0 else np.floor(x[i, col] / enc[0]) * enc[0]
-        r = x[i, 8]
+        r = x[i, _R]
         m[2] = r if enc[1] == 0.0 else np.round((r + enc[2] * np.sin(2.0 * r)) / enc[1]) * enc[1]
         for j in range(3):
-            vel[i, j] = vel[i, j] + gain * ((m[j] - meas[i, j]) / dt - vel[i, j])
+            vel[i, j] = update_velocity(meas[i, j], m[j], vel[i, j], dt, gain)
             meas[i, j] = m[j]
 
 
@@ -354,7 +359,7 @@ def _true_stiffness(x: np.ndarray, P: np.ndarray, K_b: np.ndarray) -> np.ndarray
     out = np.empty(x.shape[0])
     for i in range(x.shape[0]):
         p = _P_ROW(P, i)
-        K_s = spring_stiffness(p.lever, pivot_position(p.pivot, x[i, 1] / p.pivot_gearbox.n), x[i, 8] - x[i, 6])
+        K_s = spring_stiffness(p.lever, pivot_position(p.pivot, x[i, _TH1] / p.pivot_gearbox.n), x[i, _R] - x[i, _Q2])
         out[i] = series_stiffness(K_s, K_b[i])
     return out
 
@@ -366,9 +371,9 @@ def _margin_rows(x: np.ndarray, i2t: np.ndarray, th1_max: np.ndarray, q2_max: np
     out = np.empty((rows.shape[0], 4))
     for j in range(rows.shape[0]):
         i = rows[j]
-        q2, th1 = x[i, 6], x[i, 1]
+        q2, th1 = x[i, _Q2], x[i, _TH1]
         out[j, 0] = q2_max[i] - abs(q2)
-        out[j, 1] = phi_max[i] - abs(x[i, 8] - q2)
+        out[j, 1] = phi_max[i] - abs(x[i, _R] - q2)
         out[j, 2] = min(1.0 - i2t[i, 0] / lim[i, 0], 1.0 - i2t[i, 1] / lim[i, 1])
         out[j, 3] = min(th1, th1_max[i] - th1) / th1_max[i]
     return out
