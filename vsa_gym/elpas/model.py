@@ -121,7 +121,7 @@ def _end_stop(q: np.ndarray, qd: np.ndarray, q_max: np.ndarray | float, k: np.nd
 @register_jitable
 def _stop_terms(q: np.ndarray, qd: np.ndarray, q_max: np.ndarray | float, k: np.ndarray | float,
                 d: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-    """End-stop moment and dissipation, skipping the work when no row is in contact."""
+    """End-stop moment and dissipation of columns, skipping the work when no row is in contact."""
     moment = np.zeros_like(q)
     dissipated = np.zeros_like(q)
     if np.any(np.abs(q) > q_max):
@@ -130,33 +130,66 @@ def _stop_terms(q: np.ndarray, qd: np.ndarray, q_max: np.ndarray | float, k: np.
 
 
 @register_jitable
-def _actuator_core(x: np.ndarray, u: np.ndarray, alpha_dot: np.ndarray, p: ElpasParams, ports: np.ndarray,
-                   dx: np.ndarray, pw: np.ndarray) -> np.ndarray:
-    """Drive equations (module docstring): fills ``dx[:, :N_RIG]`` (alpha column excepted) and all
-    power channels but ``P_DAMPER``/``P_OUT`` (set to 0); returns ``F_apart = F_act + port force``."""
+def _stop_point(q: float, qd: float, q_max: float, k: float, d: float) -> tuple[float, float]:
+    """:func:`_stop_terms` at one point (scalars; the same :func:`_end_stop` in contact, else zero)."""
+    if abs(q) > q_max:
+        moment, dissipated, _ = _end_stop(q, qd, q_max, k, d)
+        return moment, dissipated
+    return 0.0, 0.0
+
+
+# The point equations below take scalars (one row, inside the compiled per-row step) or columns (numpy and
+# the columnar wrappers): the physics is written once, and both forms run the same operations in the same order.
+@register_jitable
+def _actuator_terms(gamma: np.ndarray, omega: np.ndarray, i: np.ndarray, z: np.ndarray, alpha: np.ndarray,
+                    u: np.ndarray, alpha_dot: np.ndarray, p: ElpasParams, tau_ext: np.ndarray, f_ext: np.ndarray,
+                    stop_M: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Drive equations (module docstring) given the end-stop moment ``stop_M``.
+
+    Returns ``(domega/dt, di/dt, dz/dt, P_EL, P_RES, P_FRIC, P_EXT, F_apart)`` with
+    ``F_apart = F_act + port force``.
+    """
     m, fr, dr, c = p.motor, p.friction, p.drive, p.cone
-    gamma, omega, i, z, alpha = x[:, GAMMA], x[:, OMEGA], x[:, CURRENT], x[:, BRISTLE], x[:, ALPHA]
     w_m = dr.N * omega
     u_eff = applied_voltage(m, u, i, w_m)
     zdot = bristle_derivative(fr, w_m, z)
     M_fric = lugre_moment(fr, w_m, z, zdot)
     sp = spring_unchecked(c, gamma, alpha)
-    stop_M, stop_diss = _stop_terms(gamma, omega, c.gamma_max, dr.k_stop, dr.d_stop)
-    tau_ext = ports[:, 0]
-    f_ext = ports[:, 1]
     x_ext_rate = -c.l * np.cos(alpha) * alpha_dot
+    d_omega = (dr.N * (shaft_torque(m, i, w_m) - M_fric) + sp.T_gamma + stop_M + tau_ext) / dr.J_r
+    d_i = current_derivative(m, u_eff, i, w_m)
+    return (d_omega, d_i, zdot, u_eff * i, m.R * i**2, (M_fric + m.b * w_m) * w_m,
+            -(tau_ext * omega + f_ext * x_ext_rate), sp.F_act + f_ext)
+
+
+@register_jitable
+def _actuator_core(x: np.ndarray, u: np.ndarray, alpha_dot: np.ndarray, p: ElpasParams, ports: np.ndarray,
+                   dx: np.ndarray, pw: np.ndarray) -> np.ndarray:
+    """Drive equations on columns: fills ``dx[:, :N_RIG]`` (alpha column excepted) and all
+    power channels but ``P_DAMPER``/``P_OUT`` (set to 0); returns ``F_apart = F_act + port force``."""
+    dr, c = p.drive, p.cone
+    gamma, omega = x[:, GAMMA], x[:, OMEGA]
+    stop_M, stop_diss = _stop_terms(gamma, omega, c.gamma_max, dr.k_stop, dr.d_stop)
+    d_omega, d_i, zdot, p_el, p_res, p_fric, p_ext, F_apart = _actuator_terms(
+        gamma, omega, x[:, CURRENT], x[:, BRISTLE], x[:, ALPHA], u, alpha_dot, p, ports[:, 0], ports[:, 1], stop_M)
     dx[:, GAMMA] = omega
-    dx[:, OMEGA] = (dr.N * (shaft_torque(m, i, w_m) - M_fric) + sp.T_gamma + stop_M + tau_ext) / dr.J_r
-    dx[:, CURRENT] = current_derivative(m, u_eff, i, w_m)
+    dx[:, OMEGA] = d_omega
+    dx[:, CURRENT] = d_i
     dx[:, BRISTLE] = zdot
-    pw[:, P_EL] = u_eff * i
-    pw[:, P_RES] = m.R * i**2
-    pw[:, P_FRIC] = (M_fric + m.b * w_m) * w_m
+    pw[:, P_EL] = p_el
+    pw[:, P_RES] = p_res
+    pw[:, P_FRIC] = p_fric
     pw[:, P_STOP] = stop_diss
     pw[:, P_DAMPER] = 0.0
-    pw[:, P_EXT] = -(tau_ext * omega + f_ext * x_ext_rate)
+    pw[:, P_EXT] = p_ext
     pw[:, P_OUT] = 0.0
-    return sp.F_act + f_ext
+    return F_apart
+
+
+@register_jitable
+def _rig_power_out(F_apart: np.ndarray, alpha: np.ndarray, alpha_dot: np.ndarray, p: ElpasParams) -> np.ndarray:
+    """Rig: power into the hydropulse, ``F_apart dx_ext/dt``."""
+    return F_apart * (-p.cone.l * np.cos(alpha) * alpha_dot)
 
 
 @register_jitable
@@ -166,43 +199,101 @@ def _rhs_rig_core(x: np.ndarray, rin: np.ndarray, p: ElpasParams, ports: np.ndar
     alpha_dot = rin[:, IN_ALPHA]
     F_apart = _actuator_core(x, rin[:, IN_VOLTAGE], alpha_dot, p, ports, dx, pw)
     dx[:, ALPHA] = alpha_dot
-    pw[:, P_OUT] = F_apart * (-p.cone.l * np.cos(x[:, ALPHA]) * alpha_dot)
+    pw[:, P_OUT] = _rig_power_out(F_apart, x[:, ALPHA], alpha_dot, p)
+
+
+@register_jitable
+def _tyre_force_point(y_s: np.ndarray, alpha: np.ndarray, y_r: np.ndarray, p: ElpasParams) -> np.ndarray:
+    car = p.car
+    y_u = y_s + p.cone.l * np.sin(alpha)
+    delta0 = (car.m_s + car.m_u) * GRAVITY / car.k_t
+    return car.k_t * np.maximum(y_r - y_u + delta0, 0.0)
 
 
 @register_jitable
 def _tyre_force_core(x: np.ndarray, p: ElpasParams) -> np.ndarray:
-    car = p.car
-    y_u = x[:, Y_S] + p.cone.l * np.sin(x[:, ALPHA])
-    delta0 = (car.m_s + car.m_u) * GRAVITY / car.k_t
-    return car.k_t * np.maximum(x[:, Y_R] - y_u + delta0, 0.0)
+    return _tyre_force_point(x[:, Y_S], x[:, ALPHA], x[:, Y_R], p)
 
 
 @register_jitable
-def _rhs_vehicle_core(x: np.ndarray, rin: np.ndarray, p: ElpasParams, ports: np.ndarray, dx: np.ndarray,
-                      pw: np.ndarray) -> None:
-    """Quarter-car right-hand side into ``dx[:, :N_VEHICLE]`` and ``pw``; ``rin``: voltage, dy_r/dt."""
+def _vehicle_terms(alpha: np.ndarray, alpha_dot: np.ndarray, F_apart: np.ndarray, F_t: np.ndarray,
+                   bump_M: np.ndarray, road_rate: np.ndarray, p: ElpasParams) -> tuple[np.ndarray, ...]:
+    """Quarter-car equations (module docstring). Returns ``(dalpha_dot/dt, dv_s/dt, P_DAMPER, P_OUT)``."""
     car, l = p.car, p.cone.l
-    alpha, alpha_dot = x[:, ALPHA], x[:, ALPHA_DOT]
-    F_apart = _actuator_core(x, rin[:, IN_VOLTAGE], alpha_dot, p, ports, dx, pw)
     ca, sa = np.cos(alpha), np.sin(alpha)
     travel_rate = l * ca * alpha_dot  # d(l sin alpha)/dt, compression rate
     F_damp = car.c_p * travel_rate
-    F_t = _tyre_force_core(x, p)
-    bump_M, bump_diss = _stop_terms(alpha, alpha_dot, p.cone.alpha_max, car.k_bump, car.d_bump)
     m_tot = car.m_s + car.m_u
     Q_y = F_t - m_tot * GRAVITY + car.m_u * l * sa * alpha_dot**2
     Q_a = l * ca * (F_t - car.m_u * GRAVITY - F_apart - F_damp) + bump_M + car.m_u * l**2 * ca * sa * alpha_dot**2
     M12 = car.m_u * l * ca
     M22 = car.m_u * (l * ca) ** 2 + car.J_w
     det = m_tot * M22 - M12**2
+    return (m_tot * Q_a - M12 * Q_y) / det, (M22 * Q_y - M12 * Q_a) / det, F_damp * travel_rate, -F_t * road_rate
+
+
+@register_jitable
+def _rhs_vehicle_core(x: np.ndarray, rin: np.ndarray, p: ElpasParams, ports: np.ndarray, dx: np.ndarray,
+                      pw: np.ndarray) -> None:
+    """Quarter-car right-hand side into ``dx[:, :N_VEHICLE]`` and ``pw``; ``rin``: voltage, dy_r/dt."""
+    car = p.car
+    alpha, alpha_dot = x[:, ALPHA], x[:, ALPHA_DOT]
+    F_apart = _actuator_core(x, rin[:, IN_VOLTAGE], alpha_dot, p, ports, dx, pw)
+    F_t = _tyre_force_core(x, p)
+    bump_M, bump_diss = _stop_terms(alpha, alpha_dot, p.cone.alpha_max, car.k_bump, car.d_bump)
+    d_ad, d_vs, p_damp, p_out = _vehicle_terms(alpha, alpha_dot, F_apart, F_t, bump_M, rin[:, IN_ROAD], p)
     dx[:, ALPHA] = alpha_dot
-    dx[:, ALPHA_DOT] = (m_tot * Q_a - M12 * Q_y) / det
+    dx[:, ALPHA_DOT] = d_ad
     dx[:, Y_S] = x[:, V_S]
-    dx[:, V_S] = (M22 * Q_y - M12 * Q_a) / det
+    dx[:, V_S] = d_vs
     dx[:, Y_R] = rin[:, IN_ROAD]
-    pw[:, P_DAMPER] = F_damp * travel_rate
+    pw[:, P_DAMPER] = p_damp
     pw[:, P_STOP] += bump_diss
-    pw[:, P_OUT] = -F_t * rin[:, IN_ROAD]
+    pw[:, P_OUT] = p_out
+
+
+@register_jitable
+def _rhs_q_row(y: np.ndarray, u: float, rate: float, p: ElpasParams, vehicle: bool, c: float, J: float,
+               k: np.ndarray, pw: np.ndarray) -> None:
+    """The right-hand side of one row in the ``(q, z)`` variables of :func:`_integrate` (no extensions),
+    from the same point equations on scalars.
+
+    ``y`` and ``k`` ``(n_states,)`` (``y`` in the ``(q, z)`` variables), ``pw`` ``(N_POWER,)``;
+    ``rate``: dalpha/dt (rig) or dy_r/dt (vehicle).
+    """
+    dr = p.drive
+    gamma, i, z, alpha = y[GAMMA], y[CURRENT], y[BRISTLE], y[ALPHA]
+    omega = (y[OMEGA] - c * z) / J
+    alpha_dot = y[ALPHA_DOT] if vehicle else rate
+    stop_M, stop_diss = _stop_point(gamma, omega, p.cone.gamma_max, dr.k_stop, dr.d_stop)
+    d_omega, d_i, zdot, p_el, p_res, p_fric, p_ext, F_apart = _actuator_terms(
+        gamma, omega, i, z, alpha, u, alpha_dot, p, 0.0, 0.0, stop_M)
+    k[GAMMA] = omega
+    k[OMEGA] = J * d_omega + c * zdot
+    k[CURRENT] = d_i
+    k[BRISTLE] = zdot
+    pw[P_EL] = p_el
+    pw[P_RES] = p_res
+    pw[P_FRIC] = p_fric
+    pw[P_EXT] = p_ext
+    if vehicle:
+        car = p.car
+        F_t = _tyre_force_point(y[Y_S], alpha, y[Y_R], p)
+        bump_M, bump_diss = _stop_point(alpha, alpha_dot, p.cone.alpha_max, car.k_bump, car.d_bump)
+        d_ad, d_vs, p_damp, p_out = _vehicle_terms(alpha, alpha_dot, F_apart, F_t, bump_M, rate, p)
+        k[ALPHA] = alpha_dot
+        k[ALPHA_DOT] = d_ad
+        k[Y_S] = y[V_S]
+        k[V_S] = d_vs
+        k[Y_R] = rate
+        pw[P_STOP] = stop_diss + bump_diss
+        pw[P_DAMPER] = p_damp
+        pw[P_OUT] = p_out
+    else:
+        k[ALPHA] = rate
+        pw[P_STOP] = stop_diss
+        pw[P_DAMPER] = 0.0
+        pw[P_OUT] = _rig_power_out(F_apart, alpha, rate, p)
 
 
 # ----------------------------------------------------------------------------- numpy entry points
@@ -343,56 +434,80 @@ def _integrate(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.nda
 
 
 @register_jitable
-def _rhs_q_core(y: np.ndarray, rin: np.ndarray, p: ElpasParams, ports: np.ndarray, vehicle: bool,
-                c: np.ndarray | float, J: np.ndarray | float, k: np.ndarray, pw: np.ndarray) -> None:
-    xx = y.copy()
-    xx[:, OMEGA] = (y[:, OMEGA] - c * y[:, BRISTLE]) / J
-    if vehicle:
-        _rhs_vehicle_core(xx, rin, p, ports, k, pw)
-    else:
-        _rhs_rig_core(xx, rin, p, ports, k, pw)
-    k[:, OMEGA] = J * k[:, OMEGA] + c * k[:, BRISTLE]
+def _integrate_row(x: np.ndarray, u: float, rate: float, p: ElpasParams, dt: float, n_sub: int, vehicle: bool,
+                   x_out: np.ndarray, e_out: np.ndarray) -> None:
+    """:func:`_integrate` for one row (no extensions), compiled: the same ``(q, z)`` ETDRK4, element by element.
+
+    ``x``/``x_out`` ``(n_states,)``, ``e_out`` ``(N_POWER,)`` (overwritten); ``p`` holds this row's
+    scalars (:func:`_row_params`); ``u`` the held voltage, ``rate`` dalpha/dt (rig) or dy_r/dt (vehicle).
+    """
+    nx = x.shape[0]
+    c = p.drive.N * p.friction.s1
+    J = p.drive.J_r
+    h = dt / n_sub
+    y = x.copy()
+    y[OMEGA] = J * x[OMEGA] + c * x[BRISTLE]
+    k1, k2, k3, k4 = np.empty(nx), np.empty(nx), np.empty(nx), np.empty(nx)
+    ya, yb, yc = np.empty(nx), np.empty(nx), np.empty(nx)
+    p1, p2, p3, p4 = np.empty(N_POWER), np.empty(N_POWER), np.empty(N_POWER), np.empty(N_POWER)
+    for j in range(N_POWER):
+        e_out[j] = 0.0
+    for _ in range(n_sub):
+        lam = bristle_rate(p.friction, p.drive.N * (y[OMEGA] - c * y[BRISTLE]) / J)
+        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)  # the numpy step's weights (integrate.py)
+        zs = y[BRISTLE]
+
+        _rhs_q_row(y, u, rate, p, vehicle, c, J, k1, p1)
+        n1 = k1[BRISTLE] + lam * zs
+        for j in range(nx):
+            ya[j] = y[j] + 0.5 * h * k1[j]
+        ya[BRISTLE] = e_half * zs + w_half * n1
+        _rhs_q_row(ya, u, rate, p, vehicle, c, J, k2, p2)
+        n2 = k2[BRISTLE] + lam * ya[BRISTLE]
+        for j in range(nx):
+            yb[j] = y[j] + 0.5 * h * k2[j]
+        yb[BRISTLE] = e_half * zs + w_half * n2
+        _rhs_q_row(yb, u, rate, p, vehicle, c, J, k3, p3)
+        n3 = k3[BRISTLE] + lam * yb[BRISTLE]
+        for j in range(nx):
+            yc[j] = y[j] + h * k3[j]
+        yc[BRISTLE] = e_half * ya[BRISTLE] + w_half * (2.0 * n3 - n1)
+        _rhs_q_row(yc, u, rate, p, vehicle, c, J, k4, p4)
+        n4 = k4[BRISTLE] + lam * yc[BRISTLE]
+        for j in range(nx):
+            y[j] = y[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        y[BRISTLE] = e_full * zs + h * (f_u * n1 + f_ab * (n2 + n3) + f_c * n4)
+        for j in range(N_POWER):
+            e_out[j] += (h / 6.0) * (p1[j] + 2.0 * p2[j] + 2.0 * p3[j] + p4[j])
+    for j in range(nx):
+        x_out[j] = y[j]
+    x_out[OMEGA] = (y[OMEGA] - c * y[BRISTLE]) / J
+
+
+@register_jitable
+def _advance_row(x: np.ndarray, u: float, rate: float, p: ElpasParams, dt: float, n_sub: int, vehicle: bool,
+                 x_out: np.ndarray, e_out: np.ndarray) -> None:
+    """:func:`_advance` for one row, compiled: :func:`_integrate_row`, redone with ``REVERSAL_REFINE`` times
+    more substeps when the speed reverses through a fast bristle rate (the test of :func:`_reversals_compiled`)."""
+    _integrate_row(x, u, rate, p, dt, n_sub, vehicle, x_out, e_out)
+    h = dt / n_sub
+    w0, w1 = x[OMEGA], x_out[OMEGA]
+    fast = max(bristle_rate(p.friction, p.drive.N * w0), bristle_rate(p.friction, p.drive.N * w1)) * h \
+        > REVERSAL_RATE_H
+    if np.sign(w0) != np.sign(w1) and fast:
+        _integrate_row(x, u, rate, p, dt, n_sub * REVERSAL_REFINE, vehicle, x_out, e_out)
 
 
 @numba.njit(cache=True)
 def _step_compiled(x: np.ndarray, rin: np.ndarray, p: ElpasParams, dt: float, n_sub: int,
                    vehicle: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_integrate` compiled (no extensions): the same ``(q, z)`` ETDRK4 over the same cores."""
+    """:func:`_integrate` compiled (no extensions), row by row (:func:`_integrate_row`); ``p`` the named tuple
+    of :func:`_params_tuple`."""
     n = x.shape[0]
-    ports = np.zeros((n, N_PORTS))
-    c = p.drive.N * p.friction.s1
-    J = p.drive.J_r
-    h = dt / n_sub
-    y = x.copy()
-    y[:, OMEGA] = J * x[:, OMEGA] + c * x[:, BRISTLE]
-    k1, k2, k3, k4 = np.empty_like(x), np.empty_like(x), np.empty_like(x), np.empty_like(x)
-    p1, p2, p3, p4 = (np.empty((n, N_POWER)), np.empty((n, N_POWER)), np.empty((n, N_POWER)),
-                      np.empty((n, N_POWER)))
-    energy = np.zeros((n, N_POWER))
-    for _ in range(n_sub):
-        lam = bristle_rate(p.friction, p.drive.N * (y[:, OMEGA] - c * y[:, BRISTLE]) / J)
-        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)  # the numpy step's weights (integrate.py)
-        zs = y[:, BRISTLE].copy()
-
-        _rhs_q_core(y, rin, p, ports, vehicle, c, J, k1, p1)
-        n1 = k1[:, BRISTLE] + lam * zs
-        ya = y + 0.5 * h * k1
-        ya[:, BRISTLE] = e_half * zs + w_half * n1
-        _rhs_q_core(ya, rin, p, ports, vehicle, c, J, k2, p2)
-        n2 = k2[:, BRISTLE] + lam * ya[:, BRISTLE]
-        yb = y + 0.5 * h * k2
-        yb[:, BRISTLE] = e_half * zs + w_half * n2
-        _rhs_q_core(yb, rin, p, ports, vehicle, c, J, k3, p3)
-        n3 = k3[:, BRISTLE] + lam * yb[:, BRISTLE]
-        yc = y + h * k3
-        yc[:, BRISTLE] = e_half * ya[:, BRISTLE] + w_half * (2.0 * n3 - n1)
-        _rhs_q_core(yc, rin, p, ports, vehicle, c, J, k4, p4)
-        n4 = k4[:, BRISTLE] + lam * yc[:, BRISTLE]
-        y = y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        y[:, BRISTLE] = e_full * zs + h * (f_u * n1 + f_ab * (n2 + n3) + f_c * n4)
-        energy += (h / 6.0) * (p1 + 2.0 * p2 + 2.0 * p3 + p4)
-    x_new = y.copy()
-    x_new[:, OMEGA] = (y[:, OMEGA] - c * y[:, BRISTLE]) / J
+    x_new = np.empty_like(x)
+    energy = np.empty((n, N_POWER))
+    for i in range(n):
+        _integrate_row(x[i], rin[i, 0], rin[i, 1], _row_params(p, i), dt, n_sub, vehicle, x_new[i], energy[i])
     return x_new, energy
 
 
@@ -452,6 +567,17 @@ class _ElpasT(NamedTuple):
     car: _CarT
 
 
+@register_jitable
+def _row_params(p: _ElpasT, i: int) -> _ElpasT:
+    """Row ``i`` of the named tuple of :func:`_params_tuple`, as scalars (for the per-row compiled step)."""
+    m, fr, dr, c, car = p.motor, p.friction, p.drive, p.cone, p.car
+    return _ElpasT(_MotorT(m.L[i], m.R[i], m.k_t[i], m.k_e[i], m.J[i], m.b[i], m.U_max[i], m.I_max[i]),
+                   _FrictionT(fr.s0[i], fr.s1[i], fr.s2[i], fr.F_c[i], fr.F_s[i], fr.omega_s[i]),
+                   _DriveT(dr.N[i], dr.J_r[i], dr.k_stop[i], dr.d_stop[i]),
+                   _ConeT(c.a[i], c.l[i], c.h[i], c.r[i], c.C_a[i], c.F_s0[i], c.gamma_max[i], c.alpha_max[i]),
+                   _CarT(car.m_s[i], car.m_u[i], car.k_t[i], car.c_p[i], car.J_w[i], car.k_bump[i], car.d_bump[i]))
+
+
 def _params_tuple(p: ElpasParams, n: int) -> _ElpasT:
     """The parameters as module-level named tuples of ``(n,)`` float64 arrays.
 
@@ -471,20 +597,16 @@ def _params_tuple(p: ElpasParams, n: int) -> _ElpasT:
     return t[1]
 
 
-def _integrate_any(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarray,
-                   extensions: Extensions, n_sub: int, compiled: bool) -> tuple[np.ndarray, np.ndarray]:
-    if compiled and not extensions:
-        return _step_compiled(np.ascontiguousarray(x), np.ascontiguousarray(rate_inputs),
-                              _params_tuple(p, x.shape[0]), float(p.numerics.dt), n_sub, rhs_fn is rhs_vehicle)
-    return _integrate(p, rhs_fn, x, rate_inputs, extensions, n_sub)
-
-
 @numba.njit(cache=True)
-def _reversals_compiled(w0: np.ndarray, w1: np.ndarray, p: _ElpasT, h: float) -> np.ndarray:
-    """Rows to refine in :func:`_advance`: the speed changes sign and ``lambda h > REVERSAL_RATE_H`` at either end."""
-    fast = np.maximum(bristle_rate(p.friction, p.drive.N * w0),
-                      bristle_rate(p.friction, p.drive.N * w1)) * h > REVERSAL_RATE_H
-    return (np.sign(w0) != np.sign(w1)) & fast
+def _advance_compiled(x: np.ndarray, rin: np.ndarray, p: _ElpasT, dt: float, n_sub: int,
+                      vehicle: bool) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_advance` compiled (no extensions): :func:`_advance_row` for every row, in one call."""
+    n = x.shape[0]
+    x_new = np.empty_like(x)
+    energy = np.empty((n, N_POWER))
+    for i in range(n):
+        _advance_row(x[i], rin[i, 0], rin[i, 1], _row_params(p, i), dt, n_sub, vehicle, x_new[i], energy[i])
+    return x_new, energy
 
 
 def _advance(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarray,
@@ -498,21 +620,19 @@ def _advance(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarr
     which keeps the Radau error below 1e-3 at little cost.
     """
     n_sub = _n_sub(p)
-    x_new, energy = _integrate_any(p, rhs_fn, x, rate_inputs, extensions, n_sub, compiled)
+    if compiled and not extensions:  # the whole step, reversals included, in one compiled call
+        return _advance_compiled(np.ascontiguousarray(x), np.ascontiguousarray(rate_inputs),
+                                 _params_tuple(p, x.shape[0]), float(p.numerics.dt), n_sub, rhs_fn is rhs_vehicle)
+    x_new, energy = _integrate(p, rhs_fn, x, rate_inputs, extensions, n_sub)
     # only reversals through bristle rates that matter within a substep (not presliding creep)
     h = float(p.numerics.dt) / n_sub
-    if compiled:  # the same test in one compiled call (the numpy one costs as much as the step at n = 1)
-        rev = _reversals_compiled(np.ascontiguousarray(x[:, OMEGA]), np.ascontiguousarray(x_new[:, OMEGA]),
-                                  _params_tuple(p, x.shape[0]), h)
-    else:
-        fast = np.maximum(bristle_rate(p.friction, p.drive.N * x[:, OMEGA]),
-                          bristle_rate(p.friction, p.drive.N * x_new[:, OMEGA])) * h > REVERSAL_RATE_H
-        rev = (np.sign(x[:, OMEGA]) != np.sign(x_new[:, OMEGA])) & fast
+    fast = np.maximum(bristle_rate(p.friction, p.drive.N * x[:, OMEGA]),
+                      bristle_rate(p.friction, p.drive.N * x_new[:, OMEGA])) * h > REVERSAL_RATE_H
+    rev = (np.sign(x[:, OMEGA]) != np.sign(x_new[:, OMEGA])) & fast
     if np.any(rev):
         rows = np.flatnonzero(rev)
         p_rows = take_rows(p, rows) if p.batch_size is not None else p
-        x_r, e_r = _integrate_any(p_rows, rhs_fn, x[rows], rate_inputs[rows], extensions,
-                                  n_sub * REVERSAL_REFINE, compiled)
+        x_r, e_r = _integrate(p_rows, rhs_fn, x[rows], rate_inputs[rows], extensions, n_sub * REVERSAL_REFINE)
         x_new[rows] = x_r
         energy[rows] = e_r
     return x_new, energy
