@@ -11,6 +11,15 @@ The policy is deterministic.  Episodes use the seeds ``--seed-base + k`` (defaul
 ``METRIC_SEED_BASE``, never used in training) and the environment arguments the agent was trained
 with (its ``config.yml``), so a learned policy and a baseline are measured by the same rules on the
 same episodes.  The JSON holds the metrics dict of ``evaluate_policy`` plus a ``"agent"`` entry.
+
+**Reward.**  The physical metrics (tracking RMS, comfort, energy, violations) do not depend on the
+reward, but the ``return`` does.  An agent may be trained with other reward weights (e.g.
+``env_kwargs: {w_energy: 0.01}``, a higher energy price); its return is then reported under the
+environment's **default** reward (``--reward default``, the default): the reward-only arguments of
+:data:`REWARD_KWARGS` are removed from the training ``env_kwargs`` before the evaluation, so every
+policy's return in a table is the same function of the same episodes.  ``--reward training`` keeps
+them (the return the agent was trained for).  ``agent.training_reward_kwargs`` in the JSON names
+what was removed.
 """
 
 from __future__ import annotations
@@ -26,6 +35,31 @@ import numpy as np
 import yaml
 
 from agents.common import METRIC_SEED_BASE, algo_class, algo_of_model, env_name, vecnormalize_for, write_json
+
+REWARD_KWARGS: dict[str, frozenset[str]] = {
+    "vsa_gym/ELPAS-ForceTracking-v0": frozenset({"w_force", "w_energy", "force_scale", "failure_penalty", "regen"}),
+    "vsa_gym/ELPAS-QuarterCar-v0": frozenset({"w_comfort", "w_travel", "w_tyre", "w_energy", "accel_scale",
+                                              "travel_soft", "failure_penalty", "regen"}),
+    "vsa_gym/VsaUT2-PositionStiffness-v0": frozenset({"w_position", "w_stiffness", "w_energy", "position_scale",
+                                                      "log_stiffness_scale", "failure_penalty", "regen"}),
+    "vsa_gym/VsaUT2-Throw-v0": frozenset({"failure_penalty"}),
+}
+"""Environment arguments that change only the reward (and ``energy_charged``, the energy term's basis),
+never the dynamics, observations or episode ends; ``tests/agents/test_evaluate_reward.py`` checks this
+for every registered id.  (``regen`` is reward-only on the eLPAS and the vsaUT-II position task; on the
+throw it decides how fast the energy budget is spent, so it is not listed there.)"""
+
+REWARD_MODES = ("default", "training")
+
+
+def split_reward_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``(env_kwargs without the reward-only arguments, the reward-only arguments)`` of ``env_id``."""
+    if env_id not in REWARD_KWARGS:
+        raise ValueError(f"no list of reward-only arguments for {env_id!r} (agents.evaluate.REWARD_KWARGS); "
+                         "evaluate with reward='training'")
+    keys = REWARD_KWARGS[env_id]
+    return ({k: v for k, v in env_kwargs.items() if k not in keys},
+            {k: v for k, v in env_kwargs.items() if k in keys})
 
 
 class SB3Policy:
@@ -99,17 +133,24 @@ def training_vec_env_wrapper(model_path: str | os.PathLike[str], env_id: str) ->
 def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: int = 10,
                    seed_base: int = METRIC_SEED_BASE, algo: str | None = None,
                    vecnormalize: str | os.PathLike[str] | None = None, episode_steps: int | None = None,
-                   env_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                   env_kwargs: Mapping[str, Any] | None = None, reward: str = "default") -> dict[str, Any]:
     """The baselines' metrics of a trained agent on ``episodes`` held-out seeds.
 
     A residual agent (``vec_env_wrapper`` of :mod:`agents.residual` in its ``config.yml``) is
-    evaluated as the composition baseline + scaled correction it was trained as.
+    evaluated as the composition baseline + scaled correction it was trained as.  ``reward="default"``
+    drops the reward-only training arguments (module docstring), ``"training"`` keeps them;
+    ``env_kwargs`` given here apply last in both cases.
     """
     from agents.residual import residual_config, residual_policy
     from baselines.metrics import evaluate_policy
 
     policy = load_agent(model_path, algo, vecnormalize)
+    if reward not in REWARD_MODES:
+        raise ValueError(f"reward must be one of {REWARD_MODES}, got {reward!r}")
     kw = training_env_kwargs(model_path, env_id)
+    dropped: dict[str, Any] = {}
+    if reward == "default":
+        kw, dropped = split_reward_kwargs(env_id, kw)
     kw.update(env_kwargs or {})
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
     seeds = [seed_base + k for k in range(int(episodes))]
@@ -119,7 +160,8 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     result = dict(result)
     result["agent"] = {"model": str(model_path), "algo": algo or algo_of_model(model_path),
                        "vecnormalize": str(vecnormalize or vecnormalize_for(model_path)), "seeds": seeds,
-                       "env_kwargs": kw, "residual": residual}
+                       "env_kwargs": kw, "residual": residual, "reward": reward,
+                       "training_reward_kwargs": dropped}
     return result
 
 
@@ -133,8 +175,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--algo", default=None)
     ap.add_argument("--vecnormalize", default=None)
     ap.add_argument("--episode-steps", type=int, default=None, help="shorter episodes (default: the time limit)")
+    ap.add_argument("--reward", choices=REWARD_MODES, default="default",
+                    help="return under the environment's default reward (default) or the training reward weights")
     a = ap.parse_args(argv)
-    res = evaluate_agent(a.model, a.env, a.episodes, a.seed_base, a.algo, a.vecnormalize, a.episode_steps)
+    res = evaluate_agent(a.model, a.env, a.episodes, a.seed_base, a.algo, a.vecnormalize, a.episode_steps,
+                         reward=a.reward)
     if a.json:
         write_json(a.json, res)
     print(yaml.safe_dump({k: v for k, v in res.items() if not isinstance(v, list | dict)}, sort_keys=False)

@@ -18,8 +18,15 @@ agent and every baseline with :func:`baselines.metrics.evaluate_policy` on the s
 * ``docs/img/pareto_<env>.png`` -- tracking metric against electrical energy (lower-left is better).
 
 Baselines (from :mod:`baselines`): the paper's cascade (force tracking), passive hold and
-skyhook through the cascade (quarter car), the decoupled controller (vsaUT-II position /
+skyhook through the cascade (quarter car; ``--skyhook-gains`` adds the skyhook at other damping
+gains ``c_sky``, its comfort-energy trade-off), the decoupled controller (vsaUT-II position /
 stiffness) and, everywhere, the zero action.
+
+Every return in the table is under the environment's **default** reward: an agent trained with
+other reward weights (``env_kwargs`` of its hyperparameters, e.g. a higher ``w_energy``) is
+evaluated without them (:func:`agents.evaluate.evaluate_agent`, ``reward="default"``) and its row
+names the training weights.  A finished run in ``--log-folder`` is reused only when its
+``config.yml`` equals the current hyperparameters (otherwise the agent is trained again).
 """
 
 from __future__ import annotations
@@ -56,8 +63,17 @@ COMMON = [("energy_J", "energy (J)", "{:.2f}"), ("peak_power_W", "peak power (W)
           ("return", "return", "{:.1f}")]
 
 
-def baseline_factories(env_id: str) -> dict[str, tuple[Callable[[Any], Any], dict[str, Any]]]:
-    """``name -> (policy_factory, env_kwargs)`` of the baselines of ``env_id``."""
+def skyhook_name(c_sky: float) -> str:
+    """Row name of the skyhook at gain ``c_sky`` (the default gain keeps the plain name)."""
+    from baselines.quarter_car import SkyhookConfig
+
+    return "skyhook cascade" if c_sky == SkyhookConfig.c_sky else f"skyhook cascade, c_sky = {c_sky:g} N s/m"
+
+
+def baseline_factories(env_id: str, skyhook_gains: Sequence[float] = ()
+                       ) -> dict[str, tuple[Callable[[Any], Any], dict[str, Any]]]:
+    """``name -> (policy_factory, env_kwargs)`` of the baselines of ``env_id`` (``skyhook_gains``: extra
+    skyhook rows at these damping gains, N s/m, quarter car only)."""
     from baselines.metrics import zero_policy_factory
 
     out: dict[str, tuple[Callable[[Any], Any], dict[str, Any]]] = {"zero action": (zero_policy_factory, {})}
@@ -66,10 +82,14 @@ def baseline_factories(env_id: str) -> dict[str, tuple[Callable[[Any], Any], dic
 
         out["cascade (paper)"] = (elpas_cascade_factory(), {"control_mode": "current"})
     elif env_id == "vsa_gym/ELPAS-QuarterCar-v0":
-        from baselines.quarter_car import passive_factory, skyhook_factory
+        from baselines.quarter_car import SkyhookConfig, passive_factory, skyhook_factory
 
         out["passive hold"] = (passive_factory(), {"control_mode": "current"})
         out["skyhook cascade"] = (skyhook_factory(), {"control_mode": "current"})
+        for c in sorted(set(float(g) for g in skyhook_gains)):
+            if c < 0:
+                raise ValueError(f"skyhook gains must be >= 0 N s/m, got {c}")
+            out[skyhook_name(c)] = (skyhook_factory(SkyhookConfig(c_sky=c)), {"control_mode": "current"})
     elif env_id == "vsa_gym/VsaUT2-PositionStiffness-v0":
         from baselines.vsaut2_decoupled import vsaut2_decoupled_factory
 
@@ -77,7 +97,8 @@ def baseline_factories(env_id: str) -> dict[str, tuple[Callable[[Any], Any], dic
     return out
 
 
-def evaluate_baselines(env_id: str, episodes: int, cache: dict[str, Any]) -> dict[str, list[dict[str, Any]]]:
+def evaluate_baselines(env_id: str, episodes: int, cache: dict[str, Any],
+                       skyhook_gains: Sequence[float] = ()) -> dict[str, list[dict[str, Any]]]:
     """Metrics of every baseline over the held-out episodes (one batched ``evaluate_policy`` call each).
 
     The baselines are deterministic controllers; the row is the mean over the episodes (batched
@@ -87,7 +108,7 @@ def evaluate_baselines(env_id: str, episodes: int, cache: dict[str, Any]) -> dic
 
     seeds = [METRIC_SEED_BASE + k for k in range(episodes)]
     out: dict[str, list[dict[str, Any]]] = {}
-    for name, (factory, kw) in baseline_factories(env_id).items():
+    for name, (factory, kw) in baseline_factories(env_id, skyhook_gains).items():
         key = f"{env_id}|{name}|{seeds[0]}|{episodes}"
         if key not in cache:
             cache[key] = evaluate_policy(env_id, factory, seeds, env_kwargs=kw or None)
@@ -140,7 +161,11 @@ def pareto_plot(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict
 
     key = PRIMARY_METRIC[env_id]
     fig, ax = plt.subplots(figsize=(6.4, 5.4), dpi=110)
-    markers = iter("sD^vP*X")
+    markers = iter("sD^vP*Xhp<>d8" * 3)
+    family = sorted(((float(np.mean([r["energy_J"] for r in rows])), float(np.mean([r[key] for r in rows])))
+                     for name, rows in base.items() if name.startswith("skyhook cascade")))
+    if len(family) > 1:
+        ax.plot(*zip(*family, strict=True), ls="--", lw=1, color="0.5", zorder=0, label="skyhook over its gain c_sky")
     for name, rows in base.items():
         e, y = [r["energy_J"] for r in rows], [r[key] for r in rows]
         em, elo, ehi = interval(e)
@@ -177,6 +202,42 @@ def update_doc(doc: Path, text: str) -> None:
 
 
 RESIDUAL_HYPERPARAMS = REPO / "agents" / "hyperparams" / "ppo_residual.yml"
+
+
+def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = None) -> dict[str, Any]:
+    """Reward-only ``env_kwargs`` (other reward weights than the environment's) in the hyperparameters."""
+    from agents.common import _py, read_hyperparams
+    from agents.evaluate import split_reward_kwargs
+
+    kw = read_hyperparams(algo, env_id, hyperparams).get("env_kwargs") or {}
+    return split_reward_kwargs(env_id, _py(kw) if isinstance(kw, str) else dict(kw))[1]
+
+
+def reward_note(reward_kw: dict[str, Any]) -> str:
+    """``"; trained with w_energy = 0.01"`` (empty for the default reward)."""
+    return "".join(f"; trained with {k} = {v}" for k, v in sorted(reward_kw.items()))
+
+
+def mark_stale(trials: list[dict[str, Any]]) -> list[str]:
+    """Set ``retrain`` on trials whose finished run in the log folder was trained with other hyperparameters
+    than the current file (its ``config.yml`` differs); returns those runs' directories."""
+    import yaml
+
+    from agents.common import env_name, read_hyperparams
+    from agents.sweep import finished_run
+
+    stale = []
+    for t in trials:
+        info = finished_run(t["log_folder"], t["env_id"], t["algo"], t["seed"], t.get("timesteps"))
+        if info is None:
+            continue
+        cfg = Path(info["save_path"]) / env_name(t["env_id"]) / "config.yml"
+        want = yaml.safe_load(yaml.dump(dict(sorted(read_hyperparams(t["algo"], t["env_id"],
+                                                                     t.get("hyperparams")).items()))))
+        if not cfg.exists() or yaml.safe_load(cfg.read_text()) != want:
+            t["retrain"] = True
+            stale.append(str(info["save_path"]))
+    return stale
 
 
 def residual_envs() -> dict[str, str]:
@@ -218,6 +279,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--num-cpus", type=int, default=2)
     ap.add_argument("--address", default=None, help="Ray cluster (default: local instance)")
     ap.add_argument("--eval-freq", type=int, default=25_000)
+    ap.add_argument("--skyhook-gains", nargs="*", type=float, default=[], metavar="C_SKY",
+                    help="also evaluate the quarter-car skyhook at these damping gains (N s/m; default gain 1000)")
     ap.add_argument("--reuse-baselines", action="store_true",
                     help="take the baselines' episodes from the previous docs/agents_results.json")
     ap.add_argument("--replot", action="store_true",
@@ -249,23 +312,34 @@ def main(argv: Sequence[str] | None = None) -> int:
     for env_id in a.envs:
         trials += make_trials([env_id], [a.algo], a.seeds, timesteps=steps_for[env_id], log_folder=a.log_folder,
                               episodes=a.episodes, save_freq=50_000, eval_freq=a.eval_freq, variant="pure")
+    for d in mark_stale(trials):
+        print(f"note: {d} was trained with other hyperparameters; training again", file=sys.stderr)
     base_all: dict[str, dict[str, list[dict[str, Any]]]] = {}
 
     def baselines_job() -> None:  # numpy only: runs in the driver while Ray trains the agents
         for env_id in a.envs:
-            base_all[env_id] = evaluate_baselines(env_id, a.episodes, cache)
+            gains = a.skyhook_gains if env_id == "vsa_gym/ELPAS-QuarterCar-v0" else ()
+            base_all[env_id] = evaluate_baselines(env_id, a.episodes, cache, gains)
 
     wall0 = time.perf_counter()
     worker = threading.Thread(target=baselines_job)
     worker.start()
     swept = run_sweep(trials, a.address, a.num_cpus)
     worker.join()
+    from agents.evaluate import evaluate_agent, split_reward_kwargs, training_env_kwargs
+
+    for r in swept:  # metrics cached before returns were taken under the default reward: evaluate again
+        m, model, env_id = r["metrics"], r["train_info"]["model"], r["trial"]["env_id"]
+        if (m is not None and m.get("agent", {}).get("reward") != "default"
+                and split_reward_kwargs(env_id, training_env_kwargs(model, env_id))[1]):
+            r["metrics"] = evaluate_agent(model, env_id, a.episodes)
     wall_min = (time.perf_counter() - wall0) / 60.0
     command = "python -m benchmarks.rl_vs_baselines " + " ".join(argv if argv is not None else sys.argv[1:])
     train_cpu = sum(r["train_info"]["cpu_s"] for r in swept) / 60.0
     budget = ", ".join(f"{e.split('/')[-1]} {steps_for[e]}" for e in a.envs)
     sections = [f"Made by `{command}` ({a.algo.upper()}, timesteps per agent: {budget}; seeds {a.seeds}; "
-                f"{a.episodes} held-out evaluation episodes of the full length per policy). Training CPU time of "
+                f"{a.episodes} held-out evaluation episodes of the full length per policy; returns under each "
+                f"environment's default reward). Training CPU time of "
                 f"all agents: {train_cpu:.1f} min (sum over the trials, including reused runs); wall time of the "
                 f"command: {wall_min:.1f} min.\n"]
     record: dict[str, Any] = {"command": command, "algo": a.algo, "timesteps": steps_for, "seeds": a.seeds,
@@ -280,8 +354,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                     for r in swept if r["trial"]["env_id"] == env_id and r["trial"]["variant"] == variant]
             if rows:
                 k = steps_for[env_id] // 1000
-                name = (f"{a.algo.upper()} ({k}k steps)" if variant == "pure" else
-                        f"residual {a.algo.upper()} over {res_envs[env_id]} ({k}k steps; not a pure agent)")
+                note = reward_note(training_reward(a.algo, env_id,
+                                                   RESIDUAL_HYPERPARAMS if variant == "residual" else None))
+                name = (f"{a.algo.upper()} ({k}k steps{note})" if variant == "pure" else
+                        f"residual {a.algo.upper()} over {res_envs[env_id]} ({k}k steps{note}; not a pure agent)")
                 agents[name] = rows
         base = base_all[env_id]
         short = env_id.split("/")[1]

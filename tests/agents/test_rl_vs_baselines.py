@@ -30,3 +30,65 @@ def test_table_rows_and_doc_section(tmp_path: Path) -> None:
     doc.write_text(f"intro\n{MARK_BEGIN}\nold\n{MARK_END}\noutro\n")
     update_doc(doc, "new table")
     assert doc.read_text() == f"intro\n{MARK_BEGIN}\nnew table\n{MARK_END}\noutro\n"
+
+
+QC = "vsa_gym/ELPAS-QuarterCar-v0"
+
+
+def _fake_run(log: Path, algo: str, env_id: str, seed: int, steps: int, config: dict) -> Path:
+    import yaml
+
+    from agents.common import env_name
+    from agents.common import write_json as wj
+
+    save = log / algo / f"{env_name(env_id)}_1"
+    (save / env_name(env_id)).mkdir(parents=True)
+    (save / env_name(env_id) / "config.yml").write_text(yaml.dump(dict(sorted(config.items()))))
+    model = save / f"{env_name(env_id)}.zip"
+    model.write_bytes(b"")
+    wj(save / "train_info.json", {"status": "finished", "seed": seed, "num_timesteps": steps, "model": str(model),
+                                  "save_path": str(save)})
+    return save
+
+
+def test_runs_with_other_hyperparameters_are_trained_again(tmp_path: Path) -> None:
+    from agents.common import read_hyperparams
+    from benchmarks.rl_vs_baselines import mark_stale
+
+    hp = read_hyperparams("ppo", QC)
+    trial = {"env_id": QC, "algo": "ppo", "seed": 0, "timesteps": 1000, "log_folder": str(tmp_path / "same")}
+    _fake_run(tmp_path / "same", "ppo", QC, 0, 1000, hp)
+    assert mark_stale([trial]) == [] and "retrain" not in trial  # same settings: reused
+    other = dict(trial, log_folder=str(tmp_path / "other"))
+    save = _fake_run(tmp_path / "other", "ppo", QC, 0, 1000, dict(hp, learning_rate="lin_1e-5"))
+    assert mark_stale([other]) == [str(save)] and other["retrain"] is True
+    fewer = dict(trial, timesteps=999)  # no finished run with that budget: nothing to mark
+    assert mark_stale([fewer]) == [] and "retrain" not in fewer
+
+
+def test_training_reward_is_named_in_the_row(tmp_path: Path) -> None:
+    import yaml
+
+    from benchmarks.rl_vs_baselines import reward_note, training_reward
+
+    f = tmp_path / "hp.yml"
+    f.write_text(yaml.dump({QC: {"n_timesteps": 10, "policy": "MlpPolicy",
+                                 "env_kwargs": {"control_mode": "current", "w_energy": 0.01}}}))
+    kw = training_reward("ppo", QC, f)
+    assert kw == {"w_energy": 0.01} and reward_note(kw) == "; trained with w_energy = 0.01"
+    assert reward_note({}) == ""
+
+
+def test_skyhook_gain_rows_trade_comfort_for_energy() -> None:
+    from baselines.metrics import evaluate_policy
+    from benchmarks.rl_vs_baselines import baseline_factories
+
+    rows = baseline_factories(QC, [3000.0, 250.0, 1000.0])
+    assert list(rows)[-2:] == ["skyhook cascade, c_sky = 250 N s/m", "skyhook cascade, c_sky = 3000 N s/m"]
+    res = {name: evaluate_policy(QC, fac, [2_000_000], episode_steps=1500, env_kwargs=kw)
+           for name, (fac, kw) in rows.items() if name.startswith("skyhook")}
+    e = [res[n]["energy_J"] for n in ("skyhook cascade, c_sky = 250 N s/m", "skyhook cascade",
+                                       "skyhook cascade, c_sky = 3000 N s/m")]
+    assert e[0] < e[1] < e[2]  # more skyhook damping draws more electrical energy
+    with pytest.raises(ValueError, match=">= 0"):
+        baseline_factories(QC, [-1.0])
