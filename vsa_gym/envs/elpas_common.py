@@ -26,12 +26,15 @@ drive (nominal 25 A [proposed], peak 75 A for 2 s).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
+import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.elpas import model as em
+from vsa_gym.elpas.cone import spring_unchecked
 from vsa_gym.elpas.params import ElpasParams, NumericsParams
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
@@ -40,6 +43,11 @@ from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 CURRENT_LOOP_DT = 1e-4  # s (10 kHz)
 SUBSTEP_MAX = 2.5e-4  # s, the core's validated RK4 sub-step
+
+# entries of the drive configuration array ``ElpasTask._cfg`` read by the compiled step
+(C_DT, C_H, C_N_INNER, C_N_SUB, C_CURRENT_MODE, C_P_M, C_I_M, C_I_M_MAX, C_I_NOM, C_V_GAIN, C_ENC_MOTOR,
+ C_ENC_ALPHA, C_ENC_GM, C_I2T_TRIP, C_REGEN_CLIP, C_VEHICLE) = range(16)
+N_CFG = 16
 
 
 @dataclasses.dataclass(frozen=True)
@@ -119,6 +127,19 @@ class ElpasTask(BatchedTask):
         self.s["e_el"] = np.zeros(n_)
         self.s["e_charged"] = np.zeros(n_)
         self.s["p_last"] = np.zeros(n_)  # mean electrical power of the last step (W), for the traces
+        me, ae = self.motor_encoder, self.alpha_encoder
+        cfg = np.zeros(N_CFG)
+        cfg[C_DT], cfg[C_H], cfg[C_N_INNER], cfg[C_N_SUB] = self.control_dt, h, self.n_inner, em._n_sub(self.params)
+        cfg[C_CURRENT_MODE] = control_mode == "current"
+        cfg[C_P_M], cfg[C_I_M], cfg[C_I_M_MAX] = self.loop.P_m, self.loop.I_m, self.loop.I_m_max
+        cfg[C_I_NOM], cfg[C_V_GAIN], cfg[C_I2T_TRIP] = self.i_nominal, self.v_gain, self.i2t_trip_s
+        # the encoders' quantisers as numbers for the compiled sensing (step 0: encoder disabled, exact angle)
+        cfg[C_ENC_MOTOR] = me.resolution if me.enabled else 0.0
+        cfg[C_ENC_ALPHA] = ae.resolution if ae.enabled else 0.0
+        cfg[C_ENC_GM] = ae.gain_mismatch if ae.enabled else 0.0
+        cfg[C_REGEN_CLIP], cfg[C_VEHICLE] = self.regen == "clip", self.vehicle
+        #: drive configuration of the compiled step (``C_*`` entries)
+        self._cfg = cfg
 
     # ------------------------------------------------------------------ parameters
     def _build_params(self) -> None:
@@ -169,58 +190,66 @@ class ElpasTask(BatchedTask):
         alp = self.alpha_encoder.measure(x[:, em.ALPHA])
         return np.stack([gam, alp], axis=1)
 
-    def _read_analog(self, rows: np.ndarray) -> None:
-        self._F_true = em.actuator_force_of(self.params, self.s["x"])  # true F_act of every row at the current state
+    def _read_analog(self, rows: np.ndarray, F_true: np.ndarray | None = None) -> None:
+        """Current and force readings of ``rows`` (noise drawn row by row); ``F_true``: the true ``F_act`` of
+        every row at the current state if already known."""
+        if F_true is None:
+            F_true = em.actuator_force_of(self.params, self.s["x"])
+        self._F_true = F_true  # true F_act of every row at the current state
         F = self._F_true[rows]
         self.s["cur"][rows] = add_noise(self.s["x"][rows, em.CURRENT], self.noise["current"], self.rngs, rows)
         self.s["force"][rows] = add_noise(F, self.noise["force"], self.rngs, rows)
+
+    def _param_matrix(self) -> np.ndarray:
+        """The parameters of every row for the compiled step (``model._params_matrix``, cached on the set)."""
+        return em._params_matrix(self.params, self.n)
 
     def _reset_sensors(self, rows: np.ndarray) -> None:
         self.s["meas"][rows] = self._measure(rows)
         self.s["vel"][rows] = 0.0
         self._read_analog(rows)
 
-    def _update_sensors(self) -> None:
-        rows = self._all_rows
-        m = self._measure(rows)
-        self.s["vel"] = update_velocity(self.s["meas"], m, self.s["vel"], self.control_dt, self.v_gain)
-        self.s["meas"] = m
-        self._read_analog(rows)
-
-    def _common_obs(self, rows: np.ndarray) -> np.ndarray:
-        m, v = self.s["meas"][rows], self.s["vel"][rows]
-        return np.stack([m[:, 0], v[:, 0], m[:, 1], v[:, 1], self.s["cur"][rows], self.s["force"][rows]], axis=1)
-
     # ------------------------------------------------------------------ physics
     def _physics(self, a: np.ndarray, second_end: np.ndarray) -> np.ndarray:
-        """One control step; ``second_end`` is alpha (rig) or road height (vehicle) at the end. Returns E_el (J)."""
-        p = self.params
-        # the cores' steps without their input checks: x, the commands and alpha/road are valid by construction
-        step: Callable[..., tuple[np.ndarray, np.ndarray]] = (em._step_vehicle_valid if self.vehicle
-                                                               else em._step_rig_valid)
-        col = em.Y_R if self.vehicle else em.ALPHA
-        x = self.s["x"]
-        start = x[:, col].copy()
-        e_el = np.zeros(self.n)
-        if self.control_mode == "voltage":
-            u = a[:, 0] * self._col(p.motor.U_max)
-            x, e = step(p, x, np.stack([u, second_end], axis=1), compiled=True)
-            e_el = e[:, em.P_EL]
-        else:
-            m, L = p.motor, self.loop
-            i_ref = a[:, 0] * self._col(m.I_max)
-            h = self.control_dt / self.n_inner
-            for k in range(1, self.n_inner + 1):
-                err = m.k_t * (i_ref - x[:, em.CURRENT])
-                self.s["pi_int"] = np.clip(self.s["pi_int"] + L.I_m * err * h, -L.I_m_max, L.I_m_max)
-                u = L.P_m * err + self.s["pi_int"] + m.R * i_ref
-                target = start + (second_end - start) * (k / self.n_inner)
-                x, e = step(p, x, np.stack([u, target], axis=1), compiled=True)
-                e_el = e_el + e[:, em.P_EL]
-        self.s["x"] = x
-        self.s["i2t"] = i2t_update(self.s["i2t"], x[:, em.CURRENT] ** 2, self.i_nominal, self.control_dt)
-        self._update_sensors()
+        """One control step; ``second_end`` is alpha (rig) or road height (vehicle) at the end. Returns E_el (J).
+
+        The drive, the core's step, the I^2 t state and the encoders run in one compiled call
+        (:func:`_drive_row`); the analog readings (with their noise draws) follow in Python.
+        """
+        s = self.s
+        e_el, F, finite = _drive_rows(s["x"], np.ascontiguousarray(a[:, 0]),
+                                      np.ascontiguousarray(second_end, dtype=np.float64), self._param_matrix(),
+                                      s["pi_int"], s["i2t"], s["meas"], s["vel"], self._cfg)
+        self._check_finite(finite)
+        self._read_analog(self._all_rows, F)
         return e_el
+
+    def _check_finite(self, finite: bool) -> None:
+        if not finite and self.vehicle:
+            raise ValueError("step_vehicle: the state became non-finite (check inputs and parameters)")
+
+    def _finish_step(self, out: np.ndarray, names: tuple[str, ...], clipped: np.ndarray,
+                     extra: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """The end of :meth:`BatchedTask.step` for the compiled task steps.
+
+        ``out`` holds the info values in the columns named by ``names`` (their order is the order of the
+        numpy path's ``info``), then the reward terms, the reward and the failure flag; ``extra`` the
+        observation channels after the common ones (``_obs_rows``).
+        """
+        s = self.s
+        s["t"] += self.control_dt
+        rows = self._all_rows
+        obs = _obs_rows(s["meas"], s["vel"], s["cur"], s["force"], extra, len(self._channels) - 6, rows)
+        _clip_obs_into(obs, self._obs_lo64, self._obs_hi64, s["obs"])
+        self._record(rows)
+        info = {k: out[:, j] for j, k in enumerate(names)}
+        m = len(names)
+        for j, name in enumerate(self.reward_terms):
+            info[f"reward_{name}"] = out[:, m + j]
+        m += len(self.reward_terms)
+        info["action_clipped"] = clipped
+        info["time"] = s["t"].copy()
+        return s["obs"].copy(), out[:, m], out[:, m + 1] != 0.0, info
 
     def _energy_info(self, e_el: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         charged = self.energy_cost_basis(e_el[:, None])
@@ -271,3 +300,126 @@ class ElpasTask(BatchedTask):
     def _draw_extra(self, ax: Any, i: int, scale: float) -> None:
         """Configuration-specific drawing (hydropulse or body and road); subclasses add to the picture."""
         del ax, i, scale
+
+
+# ---------------------------------------------------------------------------- compiled per-step drive
+# One row of ElpasTask._physics + _update_sensors + the I^2 t state, element by element: the core's compiled
+# per-row step (model._advance_row, the same equations as step_rig/step_vehicle), the PI current loop with the
+# operations of its numpy form, sensing.i2t_update / update_velocity, and the encoders' quantisers of
+# physics.sensors (IncrementalEncoder / AbsoluteEncoder.measure; step 0: encoder disabled, exact angle).
+@register_jitable
+def _drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarray, pi_int: np.ndarray,
+               i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray, cfg: np.ndarray) -> tuple[float, float, bool]:
+    """Advance row ``i`` one control step in place (``x``, ``pi_int``, ``i2t``, ``meas``, ``vel``).
+
+    ``cmd``: the clipped action; ``second_end``: alpha (rig) or road height (vehicle) at the end of the step.
+    Returns ``(E_el, F_act, finite)``: the electrical energy (J), the true actuator force at the new state and
+    whether the new state is finite.
+    """
+    p = em._matrix_row_params(P, i)
+    vehicle = cfg[C_VEHICLE] != 0.0
+    col = em.Y_R if vehicle else em.ALPHA
+    dt, h = cfg[C_DT], cfg[C_H]
+    n_inner, n_sub = int(cfg[C_N_INNER]), int(cfg[C_N_SUB])
+    xr = x[i]
+    x_new = np.empty(xr.shape[0])
+    e = np.empty(em.N_POWER)
+    if cfg[C_CURRENT_MODE] == 0.0:
+        u = cmd * p.motor.U_max
+        em._advance_row(xr, u, (second_end - xr[col]) / h, p, h, n_sub, vehicle, x_new, e)
+        x_new[col] = second_end
+        xr[:] = x_new
+        e_el = e[em.P_EL]
+    else:
+        m = p.motor
+        i_ref = cmd * m.I_max
+        start = xr[col]
+        e_el = 0.0
+        for k in range(1, n_inner + 1):
+            err = m.k_t * (i_ref - xr[em.CURRENT])
+            pi_int[i] = min(max(pi_int[i] + cfg[C_I_M] * err * h, -cfg[C_I_M_MAX]), cfg[C_I_M_MAX])
+            u = cfg[C_P_M] * err + pi_int[i] + m.R * i_ref
+            target = start + (second_end - start) * (k / n_inner)
+            em._advance_row(xr, u, (target - xr[col]) / h, p, h, n_sub, vehicle, x_new, e)
+            x_new[col] = target
+            xr[:] = x_new
+            e_el = e_el + e[em.P_EL]
+    finite = True
+    for j in range(xr.shape[0]):
+        finite = finite and np.isfinite(xr[j])
+    i2t[i] = i2t_update(i2t[i], xr[em.CURRENT] ** 2, cfg[C_I_NOM], dt)
+    N = p.drive.N
+    g = N * xr[em.GAMMA]
+    if cfg[C_ENC_MOTOR] != 0.0:
+        g = np.floor(g / cfg[C_ENC_MOTOR]) * cfg[C_ENC_MOTOR]
+    m0 = g / N
+    a = xr[em.ALPHA]
+    if cfg[C_ENC_ALPHA] != 0.0:
+        a = np.round((a + cfg[C_ENC_GM] * np.sin(2.0 * a)) / cfg[C_ENC_ALPHA]) * cfg[C_ENC_ALPHA]
+    vel[i, 0] = update_velocity(meas[i, 0], m0, vel[i, 0], dt, cfg[C_V_GAIN])
+    vel[i, 1] = update_velocity(meas[i, 1], a, vel[i, 1], dt, cfg[C_V_GAIN])
+    meas[i, 0], meas[i, 1] = m0, a
+    F = spring_unchecked(p.cone, xr[em.GAMMA], xr[em.ALPHA]).F_act
+    return e_el, F, finite
+
+
+@register_jitable
+def _energy_row(i: int, e_el: float, e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray,
+                cfg: np.ndarray, out: np.ndarray) -> float:
+    """:meth:`ElpasTask._energy_info` for row ``i`` into ``out[i, :N_ENERGY_INFO]``; returns the charged energy."""
+    charged = max(e_el, 0.0) if cfg[C_REGEN_CLIP] != 0.0 else e_el  # energy_cost_basis of one motor
+    e_tot[i] += e_el
+    e_ch_tot[i] += charged
+    dt = cfg[C_DT]
+    p_last[i] = e_el / dt
+    out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = e_el, charged, e_tot[i], e_ch_tot[i], e_el / dt
+    return charged
+
+
+ENERGY_INFO = ("energy_el", "energy_charged", "energy_el_total", "energy_charged_total", "power_el")
+
+
+@register_jitable
+def _drive_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarray, cfg: np.ndarray) -> tuple[float, float]:
+    """``(margin_gamma_stop, margin_i2t)`` of row ``i`` (:meth:`ElpasTask._drive_margins`)."""
+    p = em._matrix_row_params(P, i)
+    lim = i2t_limit(p.motor.I_max, cfg[C_I_NOM], cfg[C_I2T_TRIP])
+    return p.cone.gamma_max - abs(x[i, em.GAMMA]), 1.0 - i2t[i] / lim
+
+
+@numba.njit(cache=True)
+def _drive_rows(x: np.ndarray, cmd: np.ndarray, second_end: np.ndarray, P: np.ndarray, pi_int: np.ndarray,
+                i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray, cfg: np.ndarray) -> tuple[np.ndarray, np.ndarray,
+                                                                                                bool]:
+    """:func:`_drive_row` for every row: ``(E_el, F_act, all finite)``."""
+    n = x.shape[0]
+    e_el = np.empty(n)
+    F = np.empty(n)
+    ok = True
+    for i in range(n):
+        e_el[i], F[i], fin = _drive_row(x, i, cmd[i], second_end[i], P, pi_int, i2t, meas, vel, cfg)
+        ok = ok and fin
+    return e_el, F, ok
+
+
+@numba.njit(cache=True)
+def _obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
+              n_extra: int, rows: np.ndarray) -> np.ndarray:
+    """Observation rows ``(len(rows), 6 + n_extra)``: the common channels, then ``extra[i]`` and, with
+    ``n_extra = 2``, ``extra[i] - force[i]`` (force tracking: reference and error; quarter car: accelerometer)."""
+    out = np.empty((rows.shape[0], 6 + n_extra))
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        out[j, 0], out[j, 1], out[j, 2], out[j, 3] = meas[i, 0], vel[i, 0], meas[i, 1], vel[i, 1]
+        out[j, 4], out[j, 5], out[j, 6] = cur[i], force[i], extra[i]
+        if n_extra == 2:
+            out[j, 7] = extra[i] - force[i]
+    return out
+
+
+@numba.njit(cache=True)
+def _clip_obs_into(obs: np.ndarray, lo: np.ndarray, hi: np.ndarray, out: np.ndarray) -> None:
+    """``out[:] = clip(obs, lo, hi)`` as float32 (``BatchedTask._clip_obs``), in place."""
+    for i in range(obs.shape[0]):
+        for k in range(obs.shape[1]):
+            out[i, k] = min(max(obs[i, k], lo[k]), hi[k])

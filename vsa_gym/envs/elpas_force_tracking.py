@@ -4,10 +4,19 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 
 from vsa_gym.elpas import model as em
-from vsa_gym.envs.elpas_common import ElpasTask
+from vsa_gym.envs.elpas_common import (
+    C_DT,
+    ENERGY_INFO,
+    ElpasTask,
+    _drive_margins_row,
+    _drive_row,
+    _energy_row,
+    _obs_rows,
+)
 from vsa_gym.envs.signals import Multisine, SegmentReference
 from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
@@ -36,6 +45,7 @@ class ForceTrackingTask(ElpasTask):
         self.ref.alloc(self.s, self.n)
         self.s["f_ref"] = np.zeros(self.n)
         lo, hi = force_range
+        self._weights = np.array([self.w_force, self.force_scale, self.w_energy, self.failure_penalty])
         self._set_channels(self._common_channels() + [
             ObsChannel("force_ref", "N", float(lo), float(hi), "force reference"),
             ObsChannel("force_err", "N", float(lo) - 6000.0, float(hi), "force_ref - force"),
@@ -54,7 +64,26 @@ class ForceTrackingTask(ElpasTask):
         self.s["f_ref"][rows] = self.ref.value(self.s, np.zeros(len(rows)), rows)
         self._reset_sensors(rows)
 
+    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """:meth:`BatchedTask.step` with the drive, reward terms and failures of every row in one compiled call
+        (:func:`_force_tracking_row`); Python draws the noise, renews reference segments and builds ``info``.
+        A subclass that replaces :meth:`_advance` gets the generic step."""
+        if type(self)._advance is not ForceTrackingTask._advance:
+            return super().step(action)
+        a, clipped = self.validate_action(action)
+        s = self.s
+        t_new = s["t"] + self.control_dt
+        alpha_end = self.alpha_sig.value(s, t_new)
+        out = np.empty((self.n, N_OUT))
+        kernel = _force_tracking_rows_par if self.n >= PARALLEL_MIN_ROWS else _force_tracking_rows
+        kernel(s["x"], a, alpha_end, s["f_ref"], self._param_matrix(), s["pi_int"], s["i2t"], s["meas"], s["vel"],
+               s["e_el"], s["e_charged"], s["p_last"], self._cfg, self._weights, out)
+        self._read_analog(self._all_rows, out[:, OUT_F])
+        s["f_ref"] = self.ref.advance(s, t_new, self.rngs)
+        return self._finish_step(out, STEP_INFO, clipped, s["f_ref"])
+
     def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+        """The numpy-level step (the generic :meth:`BatchedTask.step`; subclasses may replace it)."""
         t_new = self.s["t"] + self.control_dt
         alpha_end = self.alpha_sig.value(self.s, t_new)
         e_el = self._physics(a, alpha_end)
@@ -74,9 +103,8 @@ class ForceTrackingTask(ElpasTask):
         return terms, fail, info
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
-        c = self._common_obs(rows)
-        f_ref = self.s["f_ref"][rows]
-        return np.concatenate([c, np.stack([f_ref, f_ref - c[:, 5]], axis=1)], axis=1)
+        s = self.s
+        return _obs_rows(s["meas"], s["vel"], s["cur"], s["force"], s["f_ref"], 2, np.asarray(rows, dtype=np.intp))
 
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         return self._drive_margins(rows)
@@ -92,6 +120,60 @@ class ForceTrackingTask(ElpasTask):
         c = self.row_params[i].cone
         tip = np.array([np.cos(x[em.ALPHA]), np.sin(x[em.ALPHA])]) * c.l * scale
         ax.plot([tip[0], tip[0]], [tip[1], -0.8], color="tab:purple", lw=4, label="hydropulse")
+
+
+# ---------------------------------------------------------------------------- compiled task step
+STEP_INFO = (*ENERGY_INFO, "margin_gamma_stop", "margin_i2t", "force_error", "alpha")
+N_OUT = len(STEP_INFO) + len(ForceTrackingTask.reward_terms) + 3  # + reward, failure flag, true F_act
+OUT_F = N_OUT - 1
+PARALLEL_MIN_ROWS = 64  # rows from which the compiled step runs its row loop on all cores
+
+
+@numba.njit(cache=True)
+def _force_tracking_row(i: int, x: np.ndarray, a: np.ndarray, alpha_end: np.ndarray, f_ref: np.ndarray,
+                        P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
+                        e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, cfg: np.ndarray, w: np.ndarray,
+                        out: np.ndarray) -> None:
+    """Row ``i`` of :meth:`ForceTrackingTask._advance` (physics, energy, margins, reward terms) into ``out[i]``.
+
+    ``w = [w_force, force_scale, w_energy, failure_penalty]``; the columns of ``out``: ``STEP_INFO``, the
+    reward terms, the reward, the failure flag, the true ``F_act``.
+    """
+    e_el, F, _ = _drive_row(x, i, a[i, 0], alpha_end[i], P, pi_int, i2t, meas, vel, cfg)
+    charged = _energy_row(i, e_el, e_tot, e_ch_tot, p_last, cfg, out)
+    mg, mi = _drive_margins_row(x, i, i2t, P, cfg)
+    err = F - f_ref[i]
+    fail = (mg <= 0) or (mi <= 0)
+    r_force = -w[0] * (err / w[1]) ** 2
+    r_energy = -w[2] * charged / cfg[C_DT]
+    r_fail = -w[3] if fail else 0.0
+    out[i, 5], out[i, 6], out[i, 7], out[i, 8] = mg, mi, err, x[i, em.ALPHA]
+    out[i, 9], out[i, 10], out[i, 11] = r_force, r_energy, r_fail
+    out[i, 12] = 0.0 + r_force + r_energy + r_fail  # BatchedTask.step's sum, in the order of reward_terms
+    out[i, 13] = 1.0 if fail else 0.0
+    out[i, 14] = F
+
+
+@numba.njit(cache=True)
+def _force_tracking_rows(x: np.ndarray, a: np.ndarray, alpha_end: np.ndarray, f_ref: np.ndarray, P: np.ndarray,
+                         pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray, e_tot: np.ndarray,
+                         e_ch_tot: np.ndarray, p_last: np.ndarray, cfg: np.ndarray, w: np.ndarray,
+                         out: np.ndarray) -> None:
+    """:func:`_force_tracking_row` for every row."""
+    for i in range(x.shape[0]):
+        _force_tracking_row(i, x, a, alpha_end, f_ref, P, pi_int, i2t, meas, vel, e_tot, e_ch_tot, p_last, cfg, w,
+                            out)
+
+
+@numba.njit(cache=True, parallel=True)
+def _force_tracking_rows_par(x: np.ndarray, a: np.ndarray, alpha_end: np.ndarray, f_ref: np.ndarray,
+                             P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
+                             e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, cfg: np.ndarray,
+                             w: np.ndarray, out: np.ndarray) -> None:
+    """:func:`_force_tracking_rows` with the rows spread over the cores (rows are independent)."""
+    for i in numba.prange(x.shape[0]):
+        _force_tracking_row(i, x, a, alpha_end, f_ref, P, pi_int, i2t, meas, vel, e_tot, e_ch_tot, p_last, cfg, w,
+                            out)
 
 
 _OBS_DOC = indent(obs_table(ForceTrackingTask(1).obs_channels))

@@ -6,10 +6,20 @@ from typing import Any
 
 import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.elpas import model as em
 from vsa_gym.elpas.params import GRAVITY, ElpasParams
-from vsa_gym.envs.elpas_common import ElpasTask
+from vsa_gym.envs.elpas_common import (
+    C_DT,
+    ENERGY_INFO,
+    ElpasTask,
+    _drive_margins_row,
+    _drive_row,
+    _energy_row,
+    _obs_rows,
+)
+from vsa_gym.envs.sensing import add_noise
 from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.vehicle.comfort import wk_sos
@@ -29,14 +39,20 @@ def sos_step(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
     """
     out = np.empty(x.shape[0])
     for i in range(x.shape[0]):
-        x_cur = x[i]
-        for s in range(sos.shape[0]):
-            x_new = sos[s, 0] * x_cur + zi[i, s, 0]
-            zi[i, s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + zi[i, s, 1]
-            zi[i, s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
-            x_cur = x_new
-        out[i] = x_cur
+        out[i] = _sos_row(sos, x[i], zi, i)
     return out
+
+
+@register_jitable
+def _sos_row(sos: np.ndarray, x: float, zi: np.ndarray, i: int) -> float:
+    """Row ``i`` of :func:`sos_step`: one sample ``x`` through the sections, ``zi[i]`` updated in place."""
+    x_cur = x
+    for s in range(sos.shape[0]):
+        x_new = sos[s, 0] * x_cur + zi[i, s, 0]
+        zi[i, s, 0] = sos[s, 1] * x_cur - sos[s, 4] * x_new + zi[i, s, 1]
+        zi[i, s, 1] = sos[s, 2] * x_cur - sos[s, 5] * x_new
+        x_cur = x_new
+    return x_cur
 
 
 class QuarterCarTask(ElpasTask):
@@ -67,6 +83,8 @@ class QuarterCarTask(ElpasTask):
                   "energy": float(w_energy)}
         self.accel_scale, self.travel_soft = float(accel_scale), float(travel_soft)
         self.failure_penalty = float(failure_penalty)
+        self._weights = np.array([self.w["comfort"], self.w["travel"], self.w["tyre"], self.w["energy"],
+                                  self.accel_scale, self.travel_soft, self.failure_penalty])
         self.sos = wk_sos(1.0 / self.control_dt)
         self.s["road"] = np.zeros((self.n, self.road_steps + 1))
         self.s["road_k"] = np.zeros(self.n, dtype=np.intp)
@@ -97,7 +115,29 @@ class QuarterCarTask(ElpasTask):
         self.s["wk_zi"][rows] = 0.0
         self._reset_sensors(rows)
 
+    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """:meth:`BatchedTask.step` with the drive, comfort filter, reward terms and failures of every row in one
+        compiled call (:func:`_quarter_car_row`); Python draws the noise and new road stretches and builds
+        ``info``.  A subclass that replaces :meth:`_advance` gets the generic step."""
+        if type(self)._advance is not QuarterCarTask._advance:
+            return super().step(action)
+        a, clipped = self.validate_action(action)
+        s = self.s
+        out = np.empty((self.n, N_OUT))
+        kernel = _quarter_car_rows_par if self.n >= PARALLEL_MIN_ROWS else _quarter_car_rows
+        finite = kernel(s["x"], a, s["road"], s["road_k"], s["t"], self._param_matrix(), s["pi_int"], s["i2t"],
+                        s["meas"], s["vel"], s["e_el"], s["e_charged"], s["p_last"], self.sos, s["wk_zi"], s["acc"],
+                        s["a_w"], s["aw_sq_sum"], self._cfg, self._weights, out)
+        self._check_finite(finite)
+        self._read_analog(self._all_rows, out[:, OUT_F])
+        if out[:, OUT_NEW_ROAD].any():
+            for i in np.flatnonzero(out[:, OUT_NEW_ROAD]):  # drive on: a fresh stretch continuing at this height
+                self._new_road(int(i), float(out[i, OUT_ROAD]))
+        s["acc_meas"][:] = self._accel_reading(self._all_rows)
+        return self._finish_step(out, STEP_INFO, clipped, s["acc_meas"])
+
     def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
+        """The numpy-level step (the generic :meth:`BatchedTask.step`; subclasses may replace it)."""
         k = self.s["road_k"] + 1
         road_end = self.s["road"][np.arange(self.n), np.minimum(k, self.road_steps)]
         v_before = self.s["x"][:, em.V_S].copy()
@@ -138,8 +178,6 @@ class QuarterCarTask(ElpasTask):
         return terms, fail, info
 
     def _accel_reading(self, rows: np.ndarray) -> np.ndarray:
-        from vsa_gym.envs.sensing import add_noise
-
         return add_noise(self.s["acc"][rows], self.noise["accel"], self.rngs, rows)
 
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
@@ -153,7 +191,8 @@ class QuarterCarTask(ElpasTask):
         return out
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
-        return np.concatenate([self._common_obs(rows), self.s["acc_meas"][rows, None]], axis=1)
+        s = self.s
+        return _obs_rows(s["meas"], s["vel"], s["cur"], s["force"], s["acc_meas"], 1, np.asarray(rows, dtype=np.intp))
 
     def _traces(self, rows: np.ndarray) -> np.ndarray:
         p = self.params
@@ -194,6 +233,97 @@ def default_task_params() -> ElpasParams:
     """eLPAS parameters of the quarter-car task: the nominal set with ``car.c_p = TASK_PARALLEL_DAMPER``."""
     p = ElpasParams()
     return p.replace(car=p.car.replace(c_p=TASK_PARALLEL_DAMPER))
+
+
+# ---------------------------------------------------------------------------- compiled task step
+STEP_INFO = (*ENERGY_INFO, "margin_gamma_stop", "margin_i2t", "margin_travel", "margin_tyre_load", "body_accel",
+             "weighted_accel", "tyre_force", "a_w_rms", "road_height", "suspension_travel")
+_N_TERMS = len(QuarterCarTask.reward_terms)
+N_OUT = len(STEP_INFO) + _N_TERMS + 4  # + reward, failure flag, true F_act, new-road flag
+OUT_F, OUT_NEW_ROAD = N_OUT - 2, N_OUT - 1
+OUT_ROAD = STEP_INFO.index("road_height")
+PARALLEL_MIN_ROWS = 64  # rows from which the compiled step runs its row loop on all cores
+
+
+@numba.njit(cache=True)
+def _quarter_car_row(i: int, x: np.ndarray, a: np.ndarray, road: np.ndarray, road_k: np.ndarray, t: np.ndarray,
+                     P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
+                     e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, sos: np.ndarray, zi: np.ndarray,
+                     acc_s: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, cfg: np.ndarray, w: np.ndarray,
+                     out: np.ndarray) -> bool:
+    """Row ``i`` of :meth:`QuarterCarTask._advance` (road sample, physics, W_k filter, energy, margins, reward
+    terms) into ``out[i]``; returns whether the new state is finite.
+
+    ``w = [w_comfort, w_travel, w_tyre, w_energy, accel_scale, travel_soft, failure_penalty]``; the columns of
+    ``out``: ``STEP_INFO``, the reward terms, the reward, the failure flag, the true ``F_act``, and 1 where the
+    road stretch has ended (Python draws the next one).
+    """
+    road_steps = road.shape[1] - 1
+    dt = cfg[C_DT]
+    k = road_k[i] + 1
+    road_end = road[i, min(k, road_steps)]
+    v_before = x[i, em.V_S]
+    e_el, F, finite = _drive_row(x, i, a[i, 0], road_end, P, pi_int, i2t, meas, vel, cfg)
+    road_k[i] = k
+    charged = _energy_row(i, e_el, e_tot, e_ch_tot, p_last, cfg, out)
+    acc = (x[i, em.V_S] - v_before) / dt
+    aw = _sos_row(sos, acc, zi, i)  # the streaming ISO 2631-1 W_k filter of sos_step
+    acc_s[i], a_w[i] = acc, aw
+    aw_sq[i] += aw**2
+    p = em._matrix_row_params(P, i)
+    alpha = x[i, em.ALPHA]
+    F_t = em._tyre_force_point(x[i, em.Y_S], alpha, x[i, em.Y_R], p)
+    F0 = (p.car.m_s + p.car.m_u) * GRAVITY
+    travel_frac = abs(alpha) / p.cone.alpha_max
+    mg, mi = _drive_margins_row(x, i, i2t, P, cfg)
+    mt = p.cone.alpha_max - abs(alpha)
+    fail = (mg <= 0) or (mi <= 0) or (F_t <= 0.0) or (mt <= 0)
+    r_comfort = -w[0] * (aw / w[4]) ** 2
+    r_travel = -w[1] * (max(travel_frac - w[5], 0.0) / (1.0 - w[5])) ** 2
+    r_tyre = -w[2] * ((F_t - F0) / F0) ** 2
+    r_energy = -w[3] * charged / dt
+    r_fail = -w[6] if fail else 0.0
+    t_new = t[i] + dt
+    out[i, 5], out[i, 6], out[i, 7], out[i, 8] = mg, mi, mt, F_t / F0
+    out[i, 9], out[i, 10], out[i, 11] = acc, aw, F_t
+    out[i, 12] = np.sqrt(aw_sq[i] / max(t_new / dt, 1.0))
+    out[i, 13], out[i, 14] = road_end, p.cone.l * np.sin(alpha)
+    out[i, 15], out[i, 16], out[i, 17], out[i, 18], out[i, 19] = r_comfort, r_travel, r_tyre, r_energy, r_fail
+    out[i, 20] = 0.0 + r_comfort + r_travel + r_tyre + r_energy + r_fail  # BatchedTask.step's sum
+    out[i, 21] = 1.0 if fail else 0.0
+    out[i, 22] = F
+    out[i, 23] = 1.0 if k >= road_steps else 0.0
+    return finite
+
+
+@numba.njit(cache=True)
+def _quarter_car_rows(x: np.ndarray, a: np.ndarray, road: np.ndarray, road_k: np.ndarray, t: np.ndarray,
+                      P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
+                      e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, sos: np.ndarray, zi: np.ndarray,
+                      acc_s: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, cfg: np.ndarray, w: np.ndarray,
+                      out: np.ndarray) -> bool:
+    """:func:`_quarter_car_row` for every row; returns whether every new state is finite."""
+    ok = True
+    for i in range(x.shape[0]):
+        fin = _quarter_car_row(i, x, a, road, road_k, t, P, pi_int, i2t, meas, vel, e_tot, e_ch_tot, p_last, sos,
+                               zi, acc_s, a_w, aw_sq, cfg, w, out)
+        ok = ok and fin
+    return ok
+
+
+@numba.njit(cache=True, parallel=True)
+def _quarter_car_rows_par(x: np.ndarray, a: np.ndarray, road: np.ndarray, road_k: np.ndarray, t: np.ndarray,
+                          P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
+                          e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, sos: np.ndarray,
+                          zi: np.ndarray, acc_s: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, cfg: np.ndarray,
+                          w: np.ndarray, out: np.ndarray) -> bool:
+    """:func:`_quarter_car_rows` with the rows spread over the cores (rows are independent)."""
+    bad = 0
+    for i in numba.prange(x.shape[0]):
+        if not _quarter_car_row(i, x, a, road, road_k, t, P, pi_int, i2t, meas, vel, e_tot, e_ch_tot, p_last, sos,
+                                zi, acc_s, a_w, aw_sq, cfg, w, out):
+            bad += 1
+    return bad == 0
 
 
 _OBS_DOC = indent(obs_table(QuarterCarTask(1).obs_channels))

@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+from numba.extending import register_jitable
 
 NoiseSpec = bool | float | Mapping[str, float] | None
 
@@ -66,17 +67,20 @@ def lowpass_gain(f_c: float, dt: float) -> float:
     return float(1.0 - np.exp(-2.0 * np.pi * f_c * dt))
 
 
+@register_jitable  # also callable from the environments' compiled steps
 def update_velocity(prev_angle: np.ndarray, angle: np.ndarray, v_prev: np.ndarray, dt: float,
                     gain: float) -> np.ndarray:
     """One step of the filtered backward-difference velocity estimate (module docstring)."""
     return v_prev + gain * ((angle - prev_angle) / dt - v_prev)
 
 
+@register_jitable  # also callable from the environments' compiled steps
 def i2t_update(h: np.ndarray, i_rms_sq: np.ndarray, i_nom: np.ndarray | float, dt: float) -> np.ndarray:
     """Advance the I^2 t heating state ``h`` (A^2 s) with the mean squared current over the step."""
     return np.maximum(h + (i_rms_sq - np.asarray(i_nom) ** 2) * dt, 0.0)
 
 
+@register_jitable  # also callable from the environments' compiled steps
 def i2t_limit(i_max: np.ndarray | float, i_nom: np.ndarray | float, t_trip: float) -> np.ndarray:
     """Trip threshold ``(I_max^2 - I_nom^2) t_trip`` (A^2 s)."""
     return (np.asarray(i_max) ** 2 - np.asarray(i_nom) ** 2) * t_trip
