@@ -79,14 +79,27 @@ def _load_over_eta(p: GearboxParams, abs_tau: np.ndarray) -> np.ndarray:
 
 
 @register_jitable
-def loss_magnitude(p: GearboxParams, tau_load: np.ndarray, omega_in: np.ndarray) -> np.ndarray:
-    """Loss torque magnitude ``m >= 0`` referred to the input shaft (N m)."""
+def _loss_magnitude_at(p: GearboxParams, tau_load: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """:func:`loss_magnitude` given ``s = tanh(omega_in / omega_eps)``.
+
+    The same operations as :func:`_load_over_eta` and :func:`efficiency`, with their common
+    ``-expm1(-alpha |tau| / tau_max)`` evaluated once (bit-identical, one transcendental fewer).
+    """
     a = np.abs(tau_load)
-    forward = (_load_over_eta(p, a) - a) / p.n
-    backward = a * (1.0 - efficiency(p, a)) / p.n
-    s = np.tanh(omega_in / p.omega_eps)
+    x = p.alpha * a / p.tau_max
+    em = -np.expm1(-x)  # eta(|tau|) / eta_max
+    small = x > 1e-9
+    ratio = select(small, x / select(small, em, 1.0), 1.0 + 0.5 * x)
+    forward = (ratio * p.tau_max / (p.alpha * p.eta_max) - a) / p.n
+    backward = a * (1.0 - p.eta_max * em) / p.n
     w = 0.5 * (1.0 + np.tanh(s * tau_load / (p.tau_eps_frac * p.tau_max)))
     return w * forward + (1.0 - w) * backward
+
+
+@register_jitable
+def loss_magnitude(p: GearboxParams, tau_load: np.ndarray, omega_in: np.ndarray) -> np.ndarray:
+    """Loss torque magnitude ``m >= 0`` referred to the input shaft (N m)."""
+    return _loss_magnitude_at(p, tau_load, np.tanh(omega_in / p.omega_eps))
 
 
 @register_jitable
@@ -100,9 +113,8 @@ def input_torque(p: GearboxParams, tau_load: np.ndarray, omega_in: np.ndarray) -
     Returns:
         ``(tau_in, p_loss)``: input torque (N m) and dissipated power (W, >= 0).
     """
-    m = loss_magnitude(p, tau_load, omega_in)
-    s = np.tanh(omega_in / p.omega_eps)
-    loss = s * m
+    s = np.tanh(omega_in / p.omega_eps)  # once: the loss blend and the loss direction share it
+    loss = s * _loss_magnitude_at(p, tau_load, s)
     return tau_load / p.n + loss, loss * omega_in
 
 

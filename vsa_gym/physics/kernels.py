@@ -8,6 +8,11 @@ between those worlds and are bridged here:
 * :func:`select` -- ``np.where`` in Python; in numba a branch for a scalar condition
   (``np.where`` on scalars returns a 0-d array there) and ``np.where`` for arrays.  The
   value is the same either way, so results do not change.
+* :func:`scalar_shortcut` -- ``False`` in Python and for arrays; the condition itself when
+  compiled with a scalar one.  A physics function uses it to skip work on the per-row
+  compiled path where the skipped formula is known to give exactly the shortcut's value
+  (a stop far from contact, an effect whose parameters are zero); the numpy path always
+  runs the full formula, so the two paths still agree bit for bit.
 * :func:`flatten_rows` / :func:`row_reader` -- the parameters as one ``(m, n_leaves)``
   array (``m = 1``: shared by every row; one numba signature whether or not they are
   batched), and a jitable reader that rebuilds row ``i`` as the parameters' named tuple
@@ -38,6 +43,25 @@ def _select_nb(cond, a, b):  # type: ignore[no-untyped-def]  # (numba: no annota
 
     def impl_array(cond, a, b):  # type: ignore[no-untyped-def]
         return np.where(cond, a, b)
+
+    return impl_array
+
+
+def scalar_shortcut(cond: Any) -> bool:
+    """``False`` here (the numpy path runs the full formula); compiled: ``cond`` if it is a scalar, else ``False``."""
+    return False
+
+
+@overload(scalar_shortcut)
+def _scalar_shortcut_nb(cond):  # type: ignore[no-untyped-def]  # (numba: no annotations on overloads)
+    if isinstance(cond, types.Boolean):
+        def impl_scalar(cond):  # type: ignore[no-untyped-def]
+            return cond
+
+        return impl_scalar
+
+    def impl_array(cond):  # type: ignore[no-untyped-def]
+        return False
 
     return impl_array
 
@@ -78,6 +102,8 @@ def row_reader(proto: Any) -> Any:
         return f"P[r, {j}]"
 
     expr = build(proto)
-    src = f"def read(P, i):\n    r = i if P.shape[0] > 1 else 0\n    return {expr}\n"
+    # ``i - i`` (not 0): the index keeps the type of ``i`` (a prange index may be unsigned; unifying it
+    # with a signed literal would give a float)
+    src = f"def read(P, i):\n    r = i if P.shape[0] > 1 else i - i\n    return {expr}\n"
     exec(src, ns)  # noqa: S102 - fixed template over the tuple's own field structure
     return register_jitable(ns["read"])

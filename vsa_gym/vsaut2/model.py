@@ -69,7 +69,7 @@ from vsa_gym.physics.contact import two_sided_stop
 from vsa_gym.physics.dc_motor import applied_voltage, current_derivative, shaft_torque
 from vsa_gym.physics.gearbox import input_torque
 from vsa_gym.physics.integrate import etdrk4_weights, exponential_rk4, rk4
-from vsa_gym.physics.kernels import flatten_rows, row_reader
+from vsa_gym.physics.kernels import flatten_rows, row_reader, scalar_shortcut
 from vsa_gym.physics.lever import lever_forces, spring_stiffness
 from vsa_gym.physics.parameters import as_batch
 from vsa_gym.physics.pivot import pivot_jacobian, pivot_position, sun_inertia
@@ -436,11 +436,18 @@ def _rhs_point(
 
     # identified effects (VsaUT2Effects; all zero by default, then every term below is exactly 0.0):
     # backlash as a smooth dead zone on the belt stretch, Coulomb + Stribeck friction at the joints
+    # (the compiled per-row path skips an absent effect's transcendentals: scalar_shortcut gives the same bits)
     e = p.effects
-    delta_bl = delta - 0.5 * (np.sqrt((delta + e.b_belt) ** 2 + e.b_eps**2)
-                              - np.sqrt((delta - e.b_belt) ** 2 + e.b_eps**2))
-    tau_fo = (e.F_c_o + e.F_s_o * np.exp(-((rd / e.w_s_o) ** 2))) * np.tanh(rd / e.w_eps)
-    tau_fad = e.F_c_ad * np.tanh(q2d / e.w_eps)
+    if scalar_shortcut(e.b_belt == 0.0):
+        delta_bl = delta  # the two square roots below are then equal: delta - 0.0
+    else:
+        delta_bl = delta - 0.5 * (np.sqrt((delta + e.b_belt) ** 2 + e.b_eps**2)
+                                  - np.sqrt((delta - e.b_belt) ** 2 + e.b_eps**2))
+    if scalar_shortcut((e.F_c_o == 0.0) & (e.F_s_o == 0.0)):
+        tau_fo = 0.0 * rd  # 0.0 * tanh(rd / w_eps): a zero with the sign of rd
+    else:
+        tau_fo = (e.F_c_o + e.F_s_o * np.exp(-((rd / e.w_s_o) ** 2))) * np.tanh(rd / e.w_eps)
+    tau_fad = 0.0 * q2d if scalar_shortcut(e.F_c_ad == 0.0) else e.F_c_ad * np.tanh(q2d / e.w_eps)
 
     # elastic elements (+ extension ports)
     lev = lever_forces(p.lever, q1, r - q2, q1_dot, rd - q2d)
