@@ -18,8 +18,14 @@ on the frame the lever torque ``k l^2 rho^2 sin(2 phi_c)`` and the viscous frict
 pivot the lever's pivot force ``F_q1`` through the mechanism's Jacobian (eqs. 4-6), both divided by
 the gearbox ratio and its maximum efficiency.
 
-Anti-windup: the integrators are clamped and do not integrate while the voltage saturates in the
-direction of the error.  The controller uses only the observation (13 channels of
+I^2 t foldback (both motors), as a servo drive limits its current when its I^2 t protection fills
+up: from the observed utilisation ``i2t_j`` (heating state over the trip threshold) the current limit
+falls linearly from ``I_max`` at ``i2t_foldback[0]`` to ``i_foldback`` (below the nominal current, so the
+heating state drains) at ``i2t_foldback[1]``; while it is below ``I_max`` the voltage is clamped to
+``k_e w_hat +- R I_lim`` (the quasi-static current limit; the current settles within ``L/R``, 0.3 ms).
+
+Anti-windup: the integrators are clamped and do not integrate while the voltage saturates (supply or
+foldback limit) in the direction of the error.  The controller uses only the observation (15 channels of
 ``VsaUT2-PositionStiffness-v0``) and runs at the environment's ``control_dt`` (2 ms).
 """
 
@@ -35,18 +41,28 @@ from vsa_gym.physics.lever import pivot_for_stiffness
 from vsa_gym.physics.pivot import pivot_jacobian, sun_angle_for
 from vsa_gym.vsaut2.params import VsaUT2Params
 
-VSAUT2_PS_OBS = ("q1_hat", "q2_hat", "r_hat", "w1_hat", "w2_hat", "r_dot_hat", "i1", "i2", "log_K_hat", "r_ref",
-                 "log_K_ref", "r_err", "log_K_err")
+VSAUT2_PS_OBS = ("q1_hat", "q2_hat", "r_hat", "w1_hat", "w2_hat", "r_dot_hat", "i1", "i2", "log_K_hat", "i2t_1",
+                 "i2t_2", "r_ref", "log_K_ref", "r_err", "log_K_err")
 
 
 @dataclasses.dataclass(frozen=True)
 class VsaUT2DecoupledConfig:
-    """Gains of the decoupled controller (tuned on the nominal model, see benchmarks.baselines)."""
+    """Gains of the decoupled controller (tuned on the nominal model, see benchmarks.baselines).
+
+    The frame gains were retuned when the I^2 t state became observable: the earlier ``kp_frame`` 400,
+    ``kd_frame`` 0.02, ``output_damping`` 0.5, ``shaping_fraction`` 0.5 drove the frame loop into a 10-20 Hz
+    limit cycle (frame voltage saturated most of the time, about 11 A rms) that tripped the frame drive's
+    I^2 t protection in 10 of 12 full episodes (seeds 100-111).  A grid over ``output_damping`` {0, 0.1,
+    0.25, 0.5}, ``kp_frame`` {100, 150, 250, 400}, ``kd_frame`` {0.02, 0.06, 0.1, 0.15} and
+    ``shaping_fraction`` {0.5, 0.8, 1, 1.3} on seeds 100-111 and a final choice between four candidates
+    on seeds 0-23 (which include the baseline table's seeds 0-2) chose these by the environment's return;
+    the agents' held-out seeds 2_000_000 + k were not used.
+    """
 
     # frame PID: volts per rad of frame angle error, per rad s, per (rad/s of motor speed)
-    kp_frame: float = 400.0
+    kp_frame: float = 250.0
     ki_frame: float = 800.0
-    kd_frame: float = 0.02  # V per rad/s of frame *motor* speed (w2_hat)
+    kd_frame: float = 0.06  # V per rad/s of frame *motor* speed (w2_hat)
     # pivot PID: volts per rad of pivot motor angle error
     kp_pivot: float = 0.6
     ki_pivot: float = 0.5
@@ -55,10 +71,20 @@ class VsaUT2DecoupledConfig:
     deflection_filter_hz: float = 0.5  # low-pass of the deflection compensation (static load only)
     deflection_comp_max: float = 0.3  # rad, clamp of the compensation
     reference_filter_hz: float = 10.0  # low-pass on the stiffness reference before differentiation
-    shaping_fraction: float = 0.5  # position reference shaped at this fraction of the output mode sqrt(K/I_o)
-    output_damping: float = 0.5  # damping ratio injected through the frame (q2_ref -= 2 zeta sqrt(I_o/K) r_dot)
+    shaping_fraction: float = 1.0  # position reference shaped at this fraction of the output mode sqrt(K/I_o)
+    output_damping: float = 0.25  # damping ratio injected through the frame (q2_ref -= 2 zeta sqrt(I_o/K) r_dot)
     feedforward: bool = True
+    # I^2 t foldback: utilisation where the current limit starts to fall and where it reaches i_foldback
+    i2t_foldback: tuple[float, float] = (0.5, 0.9)
+    i_foldback: float = 3.0  # A, below the drives' nominal 4 A: the I^2 t state drains at the folded limit
     dt: float = 2e-3
+
+    def __post_init__(self) -> None:
+        lo, hi = self.i2t_foldback
+        if not 0.0 <= lo < hi <= 1.0:
+            raise ValueError(f"i2t_foldback must be (start, end) with 0 <= start < end <= 1, got {self.i2t_foldback}")
+        if not self.i_foldback > 0.0:
+            raise ValueError(f"i_foldback must be > 0 A, got {self.i_foldback}")
 
 
 class VsaUT2Decoupled:
@@ -69,6 +95,9 @@ class VsaUT2Decoupled:
         self.config = VsaUT2DecoupledConfig() if config is None else config
         self.p = VsaUT2Params() if params is None else params
         self.idx = {name: k for k, name in enumerate(obs_names)}
+        missing = [name for name in VSAUT2_PS_OBS if name not in self.idx]
+        if missing:
+            raise ValueError(f"obs_names lack the channel(s) {missing} the controller reads; got {list(obs_names)}")
         p = self.p
         self.K_b = float(belt_stiffness_at_frame(p.belt))
         self.q1_lo, self.q1_hi = 1.5 * float(p.lever.q1_min), float(p.q1_max)
@@ -99,6 +128,13 @@ class VsaUT2Decoupled:
         K_s = K_s / np.maximum(np.cos(2.0 * phi), 0.3)
         q1 = np.clip(pivot_for_stiffness(self.p.lever, K_s), self.q1_lo, self.q1_hi)
         return self.n1 * sun_angle_for(self.p.pivot, q1)
+
+    def foldback_current(self, i_max: float, utilisation: np.ndarray) -> np.ndarray:
+        """Current limit (A) at an I^2 t ``utilisation``: ``i_max`` up to ``i2t_foldback[0]``, ``i_foldback`` from
+        ``i2t_foldback[1]`` on, linear in between."""
+        lo, hi = self.config.i2t_foldback
+        f = np.clip((np.asarray(utilisation, dtype=np.float64) - lo) / (hi - lo), 0.0, 1.0)
+        return i_max - (i_max - min(self.config.i_foldback, i_max)) * f
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         cfg, p = self.config, self.p
@@ -161,9 +197,19 @@ class VsaUT2Decoupled:
         e1 = self.th1_ref_f - th1
         u2 = cfg.kp_frame * e2 + self.int2 - cfg.kd_frame * (w2 - w2_ref) + u2_ff
         u1 = cfg.kp_pivot * e1 + self.int1 - cfg.kd_pivot * (w1 - w1_ref) + u1_ff
-        # conditional integration (anti-windup): freeze where saturated in the error's direction
-        sat2 = (np.abs(u2) >= self.u2_max) & (np.sign(u2) == np.sign(e2))
-        sat1 = (np.abs(u1) >= self.u1_max) & (np.sign(u1) == np.sign(e1))
+        u1_free, u2_free = u1, u2
+        # I^2 t foldback: clamp the voltage to the folded current limit around the back-EMF
+        lim1 = self.foldback_current(self.m1.I_max, o[:, g["i2t_1"]])
+        lim2 = self.foldback_current(self.m2.I_max, o[:, g["i2t_2"]])
+        # (only while folding back: at I_max the amplifier's own limit acts, on the true speed)
+        u1 = np.where(lim1 < self.m1.I_max, np.clip(u1, self.m1.k_e * w1 - self.m1.R * lim1,
+                                                    self.m1.k_e * w1 + self.m1.R * lim1), u1)
+        u2 = np.where(lim2 < self.m2.I_max, np.clip(u2, self.m2.k_e * w2 - self.m2.R * lim2,
+                                                    self.m2.k_e * w2 + self.m2.R * lim2), u2)
+        u1, u2 = np.clip(u1, -self.u1_max, self.u1_max), np.clip(u2, -self.u2_max, self.u2_max)
+        # conditional integration (anti-windup): freeze where a limit holds the voltage in the error's direction
+        sat2 = (u2 != u2_free) & (np.sign(u2_free) == np.sign(e2))
+        sat1 = (u1 != u1_free) & (np.sign(u1_free) == np.sign(e1))
         self.int2 = np.clip(self.int2 + np.where(sat2, 0.0, cfg.ki_frame * e2 * dt), -cfg.int_max, cfg.int_max)
         self.int1 = np.clip(self.int1 + np.where(sat1, 0.0, cfg.ki_pivot * e1 * dt), -cfg.int_max, cfg.int_max)
         act = np.stack([np.clip(u1 / self.u1_max, -1, 1), np.clip(u2 / self.u2_max, -1, 1)], axis=1)

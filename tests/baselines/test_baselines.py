@@ -13,7 +13,12 @@ from baselines.elpas_cascade import ElpasCascade, ElpasCascadeConfig, elpas_casc
 from baselines.elpas_rig import run_rig
 from baselines.metrics import evaluate_policy, mixed_policy_factory, random_policy_factory, zero_policy_factory
 from baselines.quarter_car import linear_quarter_car, passive_factory, skyhook_factory
-from baselines.vsaut2_decoupled import VsaUT2Decoupled, VsaUT2DecoupledConfig, vsaut2_decoupled_factory
+from baselines.vsaut2_decoupled import (
+    VSAUT2_PS_OBS,
+    VsaUT2Decoupled,
+    VsaUT2DecoupledConfig,
+    vsaut2_decoupled_factory,
+)
 from benchmarks.elpas_paper import bandwidth, noise_experiments
 from vsa_gym.elpas.params import ElpasParams
 
@@ -129,15 +134,57 @@ def test_integrators_bounded_on_the_rig_in_saturation() -> None:
 def test_vsaut2_integrators_bounded() -> None:
     cfg = VsaUT2DecoupledConfig()
     pol = VsaUT2Decoupled(cfg)
-    obs = np.zeros(13, dtype=np.float32)
-    obs[0] = 0.02
-    obs[8] = np.log(20.0)
-    obs[9] = 0.4  # position reference far from the frame
-    obs[10] = np.log(300.0)
+    k = {name: j for j, name in enumerate(VSAUT2_PS_OBS)}
+    obs = np.zeros(len(VSAUT2_PS_OBS), dtype=np.float32)
+    obs[k["q1_hat"]] = 0.02
+    obs[k["log_K_hat"]] = np.log(20.0)
+    obs[k["r_ref"]] = 0.4  # position reference far from the frame
+    obs[k["log_K_ref"]] = np.log(300.0)
     for _ in range(3000):
         pol(obs)
     assert np.all(np.abs(pol.int1) <= cfg.int_max + 1e-12)
     assert np.all(np.abs(pol.int2) <= cfg.int_max + 1e-12)
+
+
+def test_vsaut2_decoupled_reads_the_env_layout_and_rejects_a_short_one() -> None:
+    env = gym.make(PS)
+    assert tuple(c.name for c in env.unwrapped.task.obs_channels) == VSAUT2_PS_OBS
+    with pytest.raises(ValueError, match="i2t_2"):
+        VsaUT2Decoupled(obs_names=[n for n in VSAUT2_PS_OBS if n != "i2t_2"])
+    with pytest.raises(ValueError, match="i2t_foldback"):
+        VsaUT2DecoupledConfig(i2t_foldback=(0.9, 0.5))
+
+
+def test_vsaut2_i2t_foldback_limits_the_current_and_prevents_the_trip() -> None:
+    """The foldback lowers the current limit with the observed I^2 t utilisation and keeps the voltage inside
+    ``k_e w +- R I_lim``; a frame loop that chatters (the gains before the retune) trips a drive with a short
+    I^2 t time without it, and does not trip with it."""
+    pol = VsaUT2Decoupled()
+    np.testing.assert_allclose(pol.foldback_current(12.0, np.array([0.0, 0.5, 0.7, 0.9, 1.0])),
+                               [12.0, 12.0, 7.5, 3.0, 3.0])
+    k = {name: j for j, name in enumerate(VSAUT2_PS_OBS)}
+    obs = np.zeros(len(VSAUT2_PS_OBS), dtype=np.float32)
+    obs[k["q1_hat"]], obs[k["log_K_hat"]], obs[k["log_K_ref"]] = 0.02, np.log(20.0), np.log(20.0)
+    obs[k["i2t_2"]], obs[k["w2_hat"]] = 1.0, 50.0
+    pol(obs)
+    obs[k["r_ref"]] = 0.4  # a large frame error: the PID asks for full voltage, the foldback holds 3 A
+    u2 = pol(obs)[1] * pol.u2_max
+    m2 = pol.m2
+    assert u2 == pytest.approx(m2.k_e * 50.0 + m2.R * 3.0, rel=1e-6)
+    chatter = {"kp_frame": 400.0, "kd_frame": 0.02, "output_damping": 0.5, "shaping_fraction": 0.5}
+    ends = {}
+    for name, fb in (("foldback", (0.5, 0.9)), ("none", (0.999, 1.0))):
+        env = gym.make_vec(PS, num_envs=4, i2t_trip_s=0.2)
+        pol = vsaut2_decoupled_factory(VsaUT2DecoupledConfig(i2t_foldback=fb, **chatter))(env)
+        obs, _ = env.reset(seed=[0, 1, 2, 3])
+        alive, trips = np.ones(4, dtype=bool), 0
+        for _ in range(1000):
+            obs, _, term, trunc, info = env.step(pol(obs))
+            trips += int(np.sum(alive & term & (info["margin_i2t"] <= 0.0)))
+            alive &= ~(term | trunc)
+        ends[name] = trips
+        env.close()
+    assert ends["none"] >= 3 and ends["foldback"] == 0, ends
 
 
 def _stub_env(env: gym.Env) -> types.SimpleNamespace:

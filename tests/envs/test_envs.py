@@ -292,9 +292,82 @@ def test_compiled_vsaut2_sensing_equals_the_sensor_models(randomized: bool) -> N
     q2 = m[:, 1] / c["ratio"]
     K_s = spring_stiffness(p.lever, q1, m[:, 2] - q2)
     K = np.where(K_s > 0, np.maximum(K_s * c["K_b"] / (K_s + c["K_b"]), 0.1), 0.1)
-    expect = np.stack([q1, q2, m[:, 2], *task.s["vel"].T, *task.s["cur"].T, np.log(K)], axis=1)
+    util = np.minimum(task.s["i2t"] / c["i2t_lim"], 1.0)
+    expect = np.stack([q1, q2, m[:, 2], *task.s["vel"].T, *task.s["cur"].T, np.log(K), *util.T], axis=1)
     np.testing.assert_array_equal(task._common_obs(task._all_rows), expect)
     venv.close()
+
+
+@pytest.mark.parametrize("env_id", ["vsa_gym/VsaUT2-PositionStiffness-v0", "vsa_gym/VsaUT2-Throw-v0"])
+def test_vsaut2_i2t_utilisation_is_observed_and_reaches_one_at_the_trip(env_id: str) -> None:
+    """The observed I^2 t channels are the drives' heating states over the trip threshold: they grow under
+    a held peak current, and the episode ends on the trip exactly when the frame drive's channel reaches 1."""
+    env = gym.make(env_id, control_mode="current", i2t_trip_s=0.05)
+    task = env.unwrapped.task
+    names = [ch.name for ch in task.obs_channels]
+    k1, k2 = names.index("i2t_1"), names.index("i2t_2")
+    obs, _ = env.reset(seed=0)
+    assert obs[k1] == 0.0 and obs[k2] == 0.0
+    lim = task._cols()["i2t_lim"][0]
+    seen = []
+    for _ in range(200):
+        # the frame drive at +-peak current, alternating so the output stays inside its stops
+        obs, _, term, trunc, info = env.step(np.array([0.0, 1.0 if len(seen) % 20 < 10 else -1.0]))
+        seen.append(obs[k2])
+        np.testing.assert_allclose([obs[k1], obs[k2]], np.minimum(task.s["i2t"][0] / lim, 1.0), rtol=1e-6)
+        if term or trunc:
+            break
+    assert term and info["margin_i2t"] <= 0.0 and seen[-1] == pytest.approx(1.0)
+    assert np.all(np.diff(seen[: len(seen) // 2]) >= 0) and 0.0 < seen[len(seen) // 2] < 1.0
+
+
+def _force_frame_stop(env: gym.Env, seed: int) -> tuple[int, dict]:
+    """Drive the frame against its end stop at full voltage; returns (steps taken, info of the failing step)."""
+    env.reset(seed=seed)
+    for k in range(1, 5000):
+        _, _, term, trunc, info = env.step(np.array([0.0, 1.0]))
+        assert not trunc, "the frame stop was not reached before the time limit"
+        if term:
+            return k, info
+    raise AssertionError("no failure")
+
+
+def test_vsaut2_failure_charges_the_remaining_steps() -> None:
+    """The failure term is -(failure_penalty + failure_rate * steps left to episode_steps), the default rate bounds
+    the cost of every step before a failure (a failure is never cheaper than finishing), and the native vector
+    env takes its time limit as the horizon."""
+    env = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0")
+    task = env.unwrapped.task
+    assert task.episode_steps == env.spec.max_episode_steps == 2500
+    rate = float(task.failure_rate()[0])
+    k, info = _force_frame_stop(env, 3)
+    assert info["margin_frame_stop"] <= 0.0
+    assert info["reward_failure"] == pytest.approx(-(100.0 + rate * (2500 - k)), rel=1e-12)
+    # a second episode in the same env counts its steps from its own reset
+    k2, info2 = _force_frame_stop(env, 4)
+    assert info2["reward_failure"] == pytest.approx(-(100.0 + rate * (2500 - k2)), rel=1e-12)
+    # explicit rate and horizon
+    env3 = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", failure_rate=2.0, episode_steps=300, failure_penalty=5.0)
+    k3, info3 = _force_frame_stop(env3, 3)
+    assert k3 == k and info3["reward_failure"] == pytest.approx(-(5.0 + 2.0 * (300 - k3)), rel=1e-12)
+    # the default rate exceeds the cost of any step that did not fail (random and bang-bang actions)
+    worst = 0.0
+    for seed in range(3):
+        env.reset(seed=seed)
+        for a in _actions("vsa_gym/VsaUT2-PositionStiffness-v0", 1500, seed=seed):
+            a = np.sign(a) if seed == 2 else a
+            _, r, term, trunc, info = env.step(a)
+            if term or trunc:
+                break
+            worst = max(worst, -r)
+    assert 0.0 < worst < rate
+    venv = gym.make_vec("vsa_gym/VsaUT2-PositionStiffness-v0", num_envs=2, vectorization_mode="vector_entry_point",
+                        max_episode_steps=700)
+    assert venv.unwrapped.task.episode_steps == 700
+    with pytest.raises(ValueError, match="episode_steps"):
+        gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", episode_steps=0)
+    with pytest.raises(ValueError, match="failure_rate"):
+        gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", failure_rate=-1.0)
 
 
 def test_quarter_car_wk_filter_step_equals_scipy_sosfilt() -> None:

@@ -20,6 +20,9 @@ the output, the drives' current measurements (optional white noise).
 Failures (``terminated``): frame end stop contact ``|q2| >= q2_max``, deflection end
 stop contact ``|phi| >= phi_max``, and an I^2 t over-current trip of either drive
 (:mod:`vsa_gym.envs.sensing`; nominal current 4 A, Table IV, peak 12 A for ``i2t_trip_s``).
+Each drive's I^2 t utilisation (heating state over its trip threshold, 1 = trip) is observed
+(``i2t_1``, ``i2t_2``), as servo drives report it (e.g. maxon EPOS): without it the trip is a
+hidden state that neither a controller nor an agent could anticipate.
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ from vsa_gym.vsaut2.params import VsaUT2Params
 
 CURRENT_LOOP_DT = 1e-4  # s, 10 kHz current loop in current mode
 K_FLOOR = 0.1  # N m/rad, floor of the stiffness before taking its log (eq. 6 turns negative past 45 deg)
+N_COMMON_OBS = 11  # channels of VsaUT2Task._common_channels (the tasks append theirs after these)
 
 # eq. (6) of the lever, made callable from the compiled sensing below (the same functions, not a copy)
 register_jitable(lever_ratio)
@@ -179,6 +183,9 @@ class VsaUT2Task(BatchedTask):
             ObsChannel("i2", "A", -i2, i2, "frame motor current (drive measurement)"),
             ObsChannel("log_K_hat", "ln(N m/rad)", float(np.log(K_FLOOR)), float(np.log(1000.0)),
                        "stiffness estimate: eq. 6 at (q1_hat, r_hat - q2_hat) in series with the belt"),
+            ObsChannel("i2t_1", "-", 0.0, 1.0,
+                       "pivot drive I^2 t utilisation: heating state / trip threshold (1 = trip)"),
+            ObsChannel("i2t_2", "-", 0.0, 1.0, "frame drive I^2 t utilisation (1 = trip)"),
         ]
 
     def _measure(self, rows: np.ndarray) -> np.ndarray:
@@ -204,10 +211,10 @@ class VsaUT2Task(BatchedTask):
         self.s["cur"] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
 
     def _common_obs(self, rows: np.ndarray) -> np.ndarray:
-        """The 9 common channels of ``rows`` (compiled: eq. 5 and eq. 6 on the quantised angles)."""
+        """The ``N_COMMON_OBS`` common channels of ``rows`` (compiled: eq. 5 and eq. 6 on the quantised angles)."""
         c = self._cols()
-        return _common_obs_rows(self.s["meas"], self.s["vel"], self.s["cur"], self.model._p_rows, c["K_b"],
-                                c["ratio"], np.asarray(rows, dtype=np.intp))
+        return _common_obs_rows(self.s["meas"], self.s["vel"], self.s["cur"], self.s["i2t"], c["i2t_lim"],
+                                self.model._p_rows, c["K_b"], c["ratio"], np.asarray(rows, dtype=np.intp))
 
     def _stiffness(self) -> np.ndarray:
         """True output stiffness of every row, ``VsaUT2Model.stiffness`` (eq. 6 in series with the belt), compiled."""
@@ -336,10 +343,10 @@ def _sense_update(x: np.ndarray, meas: np.ndarray, vel: np.ndarray, i2t: np.ndar
 
 
 @numba.njit(cache=True)
-def _common_obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, P: np.ndarray, K_b: np.ndarray,
-                     ratio: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """The 9 common observation channels of ``rows``, ``(len(rows), 9)`` (see ``_common_channels``)."""
-    out = np.empty((rows.shape[0], 9))
+def _common_obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, i2t: np.ndarray, i2t_lim: np.ndarray,
+                     P: np.ndarray, K_b: np.ndarray, ratio: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The common observation channels of ``rows``, ``(len(rows), N_COMMON_OBS)`` (see ``_common_channels``)."""
+    out = np.empty((rows.shape[0], N_COMMON_OBS))
     for j in range(rows.shape[0]):
         i = rows[j]
         p = _P_ROW(P, i)
@@ -350,6 +357,8 @@ def _common_obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, P: np.n
         out[j, 0], out[j, 1], out[j, 2] = q1, q2, meas[i, 2]
         out[j, 3], out[j, 4], out[j, 5] = vel[i, 0], vel[i, 1], vel[i, 2]
         out[j, 6], out[j, 7], out[j, 8] = cur[i, 0], cur[i, 1], np.log(K)
+        out[j, 9] = min(i2t[i, 0] / i2t_lim[i, 0], 1.0)
+        out[j, 10] = min(i2t[i, 1] / i2t_lim[i, 1], 1.0)
     return out
 
 

@@ -9,8 +9,10 @@ import numpy as np
 from vsa_gym.envs.signals import SegmentReference
 from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
-from vsa_gym.envs.vsaut2_common import K_FLOOR, VsaUT2Task
+from vsa_gym.envs.vsaut2_common import K_FLOOR, N_COMMON_OBS, VsaUT2Task
 from vsa_gym.vsaut2.model import STATE
+
+ENV_NAME = "VsaUT2-PositionStiffness-v0"
 
 
 class PositionStiffnessTask(VsaUT2Task):
@@ -31,6 +33,8 @@ class PositionStiffnessTask(VsaUT2Task):
         position_scale: float = 0.2,
         log_stiffness_scale: float = 1.0,
         failure_penalty: float = 100.0,
+        failure_rate: float | None = None,
+        episode_steps: int | None = None,
         position_range: float = 0.4,
         stiffness_range: tuple[float, float] = (2.0, 300.0),
         disturbance_max: float = 0.5,
@@ -41,6 +45,18 @@ class PositionStiffnessTask(VsaUT2Task):
         self.w = {"position": float(w_position), "stiffness": float(w_stiffness), "energy": float(w_energy)}
         self.position_scale, self.log_stiffness_scale = float(position_scale), float(log_stiffness_scale)
         self.failure_penalty = float(failure_penalty)
+        if episode_steps is None:
+            from vsa_gym.envs import ENV_SPECS
+
+            episode_steps = ENV_SPECS[ENV_NAME][1]  # the registered time limit
+        if int(episode_steps) != episode_steps or episode_steps < 1:
+            raise ValueError(f"episode_steps must be a positive integer (the time limit in steps), got {episode_steps}")
+        self.episode_steps = int(episode_steps)
+        if failure_rate is not None and not (np.isfinite(failure_rate) and failure_rate >= 0):
+            raise ValueError(f"failure_rate must be a finite rate >= 0 per remaining step, or None, got {failure_rate}")
+        self._failure_rate_arg = None if failure_rate is None else float(failure_rate)
+        self.position_range = float(position_range)
+        self.stiffness_range = (float(stiffness_range[0]), float(stiffness_range[1]))
         q2_max = float(np.min(self.base_rows[0].q2_max))
         if not 0 < position_range < q2_max:
             raise ValueError(f"position_range must lie in (0, q2_max = {q2_max:.3f}) rad, got {position_range}")
@@ -56,6 +72,7 @@ class PositionStiffnessTask(VsaUT2Task):
         self.s["r_ref"] = np.zeros(self.n)
         self.s["k_ref"] = np.zeros(self.n)
         self.s["tau"] = np.zeros(self.n)
+        self.s["steps"] = np.zeros(self.n, dtype=np.int64)  # control steps taken in the episode
         self._set_channels(self._common_channels() + [
             ObsChannel("r_ref", "rad", -position_range, position_range, "output position reference"),
             ObsChannel("log_K_ref", "ln(N m/rad)", float(np.log(lo)), float(np.log(hi)),
@@ -65,6 +82,24 @@ class PositionStiffnessTask(VsaUT2Task):
                        float(np.log(hi) - np.log(K_FLOOR)), "log_K_ref - log_K_hat"),
         ])
 
+    def failure_rate(self) -> np.ndarray:
+        """Per-row charge per remaining step of a failed episode, ``(n,)`` (docstring of the env, Rewards).
+
+        ``failure_rate`` if given, else the largest cost one step can have before a failure: the position
+        error is below ``q2_max + phi_max + position_range`` (frame and deflection inside their stops, the
+        reference inside its range), ``|ln K - ln K_ref|`` below ``max(ln K_hi - ln K_FLOOR, ln K_b - ln K_lo)``
+        (``K_FLOOR <= K < K_b``, the belt in series), and each drive draws at most ``U_max I_max``.
+        """
+        if self._failure_rate_arg is not None:
+            return np.full(self.n, self._failure_rate_arg)
+        c = self._cols()
+        lo, hi = np.log(self.stiffness_range[0]), np.log(self.stiffness_range[1])
+        e_r = c["q2_max"] + c["phi_max"] + self.position_range
+        e_k = np.maximum(hi - np.log(K_FLOOR), np.log(c["K_b"]) - lo)
+        p_max = (c["U_max"] * c["I_max"]).sum(axis=1)
+        return (self.w["position"] * (e_r / self.position_scale) ** 2
+                + self.w["stiffness"] * (e_k / self.log_stiffness_scale) ** 2
+                + self.w["energy"] * p_max * self.control_dt)
 
     def _reset_rows(self, rows: np.ndarray) -> None:
         self._sample_params(rows)
@@ -81,6 +116,7 @@ class PositionStiffnessTask(VsaUT2Task):
         self.s["r_ref"][rows] = self.ref_r.value(self.s, zero, rows)
         self.s["k_ref"][rows] = self.ref_k.value(self.s, zero, rows)
         self.s["tau"][rows] = 0.0  # no disturbance at the start
+        self.s["steps"][rows] = 0
         self._reset_sensors(rows)
 
     def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
@@ -92,11 +128,13 @@ class PositionStiffnessTask(VsaUT2Task):
         e_k = logK - self.s["k_ref"]
         charged, info = self._energy_info(e_m)
         fail, margins = self._failures()
+        self.s["steps"] += 1
+        remaining = np.maximum(self.episode_steps - self.s["steps"], 0)
         terms = {
             "position": -self.w["position"] * (e_r / self.position_scale) ** 2,
             "stiffness": -self.w["stiffness"] * (e_k / self.log_stiffness_scale) ** 2,
             "energy": -self.w["energy"] * charged,
-            "failure": np.where(fail, -self.failure_penalty, 0.0),
+            "failure": np.where(fail, -(self.failure_penalty + self.failure_rate() * remaining), 0.0),
         }
         info.update(margins)
         info.update({"position_error": e_r, "log_stiffness_error": e_k, "tau_ext": self.s["tau"].copy()})
@@ -109,9 +147,10 @@ class PositionStiffnessTask(VsaUT2Task):
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         c = self._common_obs(rows)
         r_ref, k_ref = self.s["r_ref"][rows], self.s["k_ref"][rows]
-        out = np.empty((c.shape[0], 13))  # the 9 common channels, then r_ref, log_K_ref and the two errors
-        out[:, :9] = c
-        out[:, 9], out[:, 10], out[:, 11], out[:, 12] = r_ref, k_ref, r_ref - c[:, 2], k_ref - c[:, 8]
+        n = N_COMMON_OBS
+        out = np.empty((c.shape[0], n + 4))  # the common channels, then r_ref, log_K_ref and the two errors
+        out[:, :n] = c
+        out[:, n], out[:, n + 1], out[:, n + 2], out[:, n + 3] = r_ref, k_ref, r_ref - c[:, 2], k_ref - c[:, 8]
         return out
 
     def _traces(self, rows: np.ndarray) -> np.ndarray:
@@ -145,7 +184,7 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
     naming the component, and nothing is changed.
 
     ## Observation space
-    ``Box(low, high, (13,), float32)``, built only from sensors (values clipped to the bounds):
+    ``Box(low, high, (15,), float32)``, built only from sensors (values clipped to the bounds):
 
 {_OBS_DOC}
 
@@ -156,7 +195,21 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
         stiffness = -w_stiffness ((ln K - ln K_ref) / log_stiffness_scale)^2   (K: eq. 6 in series with the belt,
                                                                                floored at 0.1 N m/rad)
         energy    = -w_energy E_el                                             (J over the step)
-        failure   = -failure_penalty on a failure step, else 0
+        failure   = -(failure_penalty + failure_rate (episode_steps - k)) on a failure at step k, else 0
+
+    A failure ends the episode, and the steps it did not take would each have cost something:
+    a fixed penalty alone made failing *cheaper* than tracking to the time limit (a policy could
+    end every episode after a few dozen steps on purpose).  The failure term therefore also charges
+    every step left until ``episode_steps`` (default: the registered time limit, 2500 steps; the
+    native vector env takes its ``max_episode_steps``) at ``failure_rate`` per step.  By default
+    ``failure_rate`` is the largest cost any step can have before a failure (with the default
+    arguments about 129 per step: position error at most ``q2_max + phi_max + position_range``
+    = 1.6 rad -> 64, stiffness error at most ``ln(300 / 0.1)`` -> 64, both drives at ``U_max I_max``
+    -> 1.2; :meth:`PositionStiffnessTask.failure_rate` computes it per row from the row's parameters),
+    so a failure is never cheaper than finishing the episode, whatever the policy would have done
+    in the remaining steps.  With ``gym.make(..., max_episode_steps=N)`` (a ``TimeLimit`` the
+    environment cannot see) pass ``episode_steps=N`` as well: a longer limit without it leaves
+    failures after step 2500 charged only ``failure_penalty``.
 
     ``E_el`` is the core's integrated electrical energy of both motors over the step.
     Regeneration (``regen``): ``"clip"`` (default) charges ``max(E_motor, 0)`` per motor and
@@ -179,8 +232,9 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
     ``gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", control_dt=2e-3, control_mode="voltage",
     params=VsaUT2Params(), domain_randomization=None, sensor_noise=False, regen="clip",
     render_mode=None, w_position=1.0, w_stiffness=1.0, w_energy=1.0, position_scale=0.2,
-    log_stiffness_scale=1.0, failure_penalty=100.0, position_range=0.4, stiffness_range=(2, 300),
-    disturbance_max=0.5, current_bandwidth_hz=1000.0, i_nominal=4.0, i2t_trip_s=2.0,
+    log_stiffness_scale=1.0, failure_penalty=100.0, failure_rate=None, episode_steps=None,
+    position_range=0.4, stiffness_range=(2, 300), disturbance_max=0.5, current_bandwidth_hz=1000.0,
+    i_nominal=4.0, i2t_trip_s=2.0,
     velocity_cutoff_hz=50.0, integrator="rk4")``.  ``params`` is any (e.g. identified) :class:`VsaUT2Params`;
     ``domain_randomization`` maps dotted parameter paths to ``(low, high)`` ranges resampled on
     reset (:mod:`vsa_gym.envs.randomization`); ``sensor_noise``: ``False`` / ``True`` / scale /
@@ -199,6 +253,15 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
 
 
 class VsaUT2PositionStiffnessVectorEnv(TaskVectorEnv):
-    """Native vector version of :class:`VsaUT2PositionStiffnessEnv` (one batched core call per step)."""
+    """Native vector version of :class:`VsaUT2PositionStiffnessEnv` (one batched core call per step).
+
+    Its time limit ``max_episode_steps`` is also the task's ``episode_steps`` (the horizon of the failure
+    charge) unless ``episode_steps`` is given.
+    """
 
     task_cls = PositionStiffnessTask
+
+    def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, **kwargs: Any) -> None:
+        if max_episode_steps is not None and kwargs.get("episode_steps") is None:
+            kwargs["episode_steps"] = max_episode_steps
+        super().__init__(num_envs, max_episode_steps=max_episode_steps, **kwargs)

@@ -118,7 +118,7 @@ class VsaUT2ThrowEnv(TaskEnv):
     out-of-range components are clipped, NaN/inf raise ``ValueError``.
 
     ## Observation space
-    ``Box(low, high, (11,), float32)``, from sensors (clipped to the bounds):
+    ``Box(low, high, (13,), float32)``, from sensors (clipped to the bounds):
 
 {_OBS_DOC}
 
