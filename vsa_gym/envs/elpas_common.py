@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 import numba
 import numpy as np
@@ -48,6 +48,14 @@ SUBSTEP_MAX = 2.5e-4  # s, the core's validated RK4 sub-step
 (C_DT, C_H, C_N_INNER, C_N_SUB, C_CURRENT_MODE, C_P_M, C_I_M, C_I_M_MAX, C_I_NOM, C_V_GAIN, C_ENC_MOTOR,
  C_ENC_ALPHA, C_ENC_GM, C_I2T_TRIP, C_REGEN_CLIP, C_VEHICLE) = range(16)
 N_CFG = 16
+# columns of the drive bookkeeping array ``s["drive"]`` (``s["pi_int"]``, ... are views of them)
+D_PI, D_I2T, D_MEAS, D_VEL, D_CUR, D_FORCE, D_E_EL, D_E_CH, D_P_LAST = 0, 1, 2, 4, 6, 7, 8, 9, 10
+N_DRIVE = 11
+# the last rows of a compiled step's ``out`` (after its info values and reward terms)
+OUT_REWARD, OUT_FAIL, OUT_CLIPPED, OUT_F, OUT_NEW_SEGMENT = range(5)
+N_OUT_TAIL = 5
+STATUS_BAD_ACTION, STATUS_BAD_STATE = -1, -2  # the compiled steps' return values besides a count of flagged rows
+PARALLEL_MIN_ROWS = 64  # rows from which the compiled steps run their row loop on all cores
 
 
 @dataclasses.dataclass(frozen=True)
@@ -118,15 +126,19 @@ class ElpasTask(BatchedTask):
         n_ = self.n
         width = em.N_VEHICLE if self.vehicle else em.N_RIG
         self.s["x"] = np.zeros((n_, width))
-        self.s["pi_int"] = np.zeros(n_)
-        self.s["i2t"] = np.zeros(n_)
-        self.s["meas"] = np.zeros((n_, 2))  # gamma, alpha (quantised)
-        self.s["vel"] = np.zeros((n_, 2))
-        self.s["cur"] = np.zeros(n_)
-        self.s["force"] = np.zeros(n_)
-        self.s["e_el"] = np.zeros(n_)
-        self.s["e_charged"] = np.zeros(n_)
-        self.s["p_last"] = np.zeros(n_)  # mean electrical power of the last step (W), for the traces
+        # the drive's per-row bookkeeping in one array (the compiled steps take it as one argument); the named
+        # entries are views of its columns, so they must be written in place, never rebound
+        drv = np.zeros((n_, N_DRIVE))
+        self.s["drive"] = drv
+        self.s["pi_int"] = drv[:, D_PI]
+        self.s["i2t"] = drv[:, D_I2T]
+        self.s["meas"] = drv[:, D_MEAS:D_MEAS + 2]  # gamma, alpha (quantised)
+        self.s["vel"] = drv[:, D_VEL:D_VEL + 2]
+        self.s["cur"] = drv[:, D_CUR]
+        self.s["force"] = drv[:, D_FORCE]
+        self.s["e_el"] = drv[:, D_E_EL]
+        self.s["e_charged"] = drv[:, D_E_CH]
+        self.s["p_last"] = drv[:, D_P_LAST]  # mean electrical power of the last step (W), for the traces
         me, ae = self.motor_encoder, self.alpha_encoder
         cfg = np.zeros(N_CFG)
         cfg[C_DT], cfg[C_H], cfg[C_N_INNER], cfg[C_N_SUB] = self.control_dt, h, self.n_inner, em._n_sub(self.params)
@@ -140,6 +152,11 @@ class ElpasTask(BatchedTask):
         cfg[C_REGEN_CLIP], cfg[C_VEHICLE] = self.regen == "clip", self.vehicle
         #: drive configuration of the compiled step (``C_*`` entries)
         self._cfg = cfg
+        self._info_names = (*self.step_info, *(f"reward_{k}" for k in self.reward_terms))
+        self._n_info = len(self._info_names)
+        #: any sensor noise? (then the compiled step's noise-free observation is recomputed after the draws)
+        self._noisy = any(v != 0.0 for v in self.noise.values())
+        self._P_memo: tuple[Any, np.ndarray] | None = None
 
     # ------------------------------------------------------------------ parameters
     def _build_params(self) -> None:
@@ -202,7 +219,10 @@ class ElpasTask(BatchedTask):
 
     def _param_matrix(self) -> np.ndarray:
         """The parameters of every row for the compiled step (``model._params_matrix``, cached on the set)."""
-        return em._params_matrix(self.params, self.n)
+        memo = self._P_memo
+        if memo is None or memo[0] is not self.params:
+            memo = self._P_memo = (self.params, em._params_matrix(self.params, self.n))
+        return memo[1]
 
     def _reset_sensors(self, rows: np.ndarray) -> None:
         self.s["meas"][rows] = self._measure(rows)
@@ -228,34 +248,78 @@ class ElpasTask(BatchedTask):
         if not finite and self.vehicle:
             raise ValueError("step_vehicle: the state became non-finite (check inputs and parameters)")
 
-    def _finish_step(self, out: np.ndarray, names: tuple[str, ...], clipped: np.ndarray,
-                     extra: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """The end of :meth:`BatchedTask.step` for the compiled task steps.
+    # ------------------------------------------------------------------ compiled step
+    #: the class whose ``_advance`` the compiled step implements (a subclass replacing ``_advance`` runs the
+    #: generic numpy-level step), the info keys in the order of the numpy path, and the columns of ``out``
+    _kernel_owner: ClassVar[type | None] = None
+    step_info: ClassVar[tuple[str, ...]] = ()
 
-        ``out`` holds the info values in the columns named by ``names`` (their order is the order of the
-        numpy path's ``info``), then the reward terms, the reward and the failure flag; ``extra`` the
-        observation channels after the common ones (``_obs_rows``).
-        """
+    def _use_kernel(self) -> bool:
+        owner = self._kernel_owner
+        return owner is not None and type(self)._advance is owner._advance
+
+    def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
+        """Run the task's compiled step on the raw actions ``a`` ``(n, 1)``. Returns ``STATUS_BAD_ACTION``
+        (nothing changed), ``STATUS_BAD_STATE`` or the number of rows flagged in ``out[OUT_NEW_SEGMENT]``."""
+        raise NotImplementedError
+
+    def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
+        """Python part after the compiled step (random draws in the numpy path's order; ``renew``: some row is
+        flagged in ``out[OUT_NEW_SEGMENT]``); returns the observation channels after the common ones
+        (``_obs_rows``'s ``extra``)."""
+        raise NotImplementedError
+
+    def _kernel_step(self, action: Any) -> np.ndarray:
+        """The compiled :meth:`BatchedTask.step` up to ``info``; returns ``out`` ``(n_out, n)`` (see ``OUT_*``)."""
+        n = self.n
+        if isinstance(action, np.ndarray) and action.shape == (n, 1) and action.dtype.kind == "f":
+            a = action.astype(np.float64, copy=False)  # clipped and checked for finiteness in the compiled step
+        else:
+            a, _ = self.validate_action(action)
+        out = np.empty((self._n_info + N_OUT_TAIL, n))
+        status = self._run_kernel(a, out)
+        if status == STATUS_BAD_ACTION:
+            self.validate_action(action)  # raises ValueError naming the component; nothing was changed
+        self._check_finite(status != STATUS_BAD_STATE)
+        if self.noise["current"] or self.noise["force"]:
+            self._read_analog(self._all_rows, out[-N_OUT_TAIL + OUT_F])
+        extra = self._after_kernel(out, status > 0)
         s = self.s
         s["t"] += self.control_dt
-        rows = self._all_rows
-        obs = _obs_rows(s["meas"], s["vel"], s["cur"], s["force"], extra, len(self._channels) - 6, rows)
-        _clip_obs_into(obs, self._obs_lo64, self._obs_hi64, s["obs"])
-        self._record(rows)
-        info = {k: out[:, j] for j, k in enumerate(names)}
-        m = len(names)
-        for j, name in enumerate(self.reward_terms):
-            info[f"reward_{name}"] = out[:, m + j]
-        m += len(self.reward_terms)
-        info["action_clipped"] = clipped
-        info["time"] = s["t"].copy()
-        return s["obs"].copy(), out[:, m], out[:, m + 1] != 0.0, info
+        if status > 0 or self._noisy:  # the compiled step's observation lacks the noise or a renewed segment
+            _obs_clip_into(s["meas"], s["vel"], s["cur"], s["force"], extra, len(self._channels) - 6,
+                           self._obs_lo64, self._obs_hi64, s["obs"])
+        self._record(self._all_rows)
+        return out
+
+    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """:meth:`BatchedTask.step` through the task's compiled step (drive, core, sensors, energy, margins, reward
+        terms and failures of every row in one call); Python draws the noise and renews the signals."""
+        if not self._use_kernel():
+            return super().step(action)
+        out = self._kernel_step(action)
+        m = self._n_info
+        info = dict(zip(self._info_names, out[:m], strict=True))
+        info["action_clipped"] = out[m + OUT_CLIPPED] != 0.0
+        info["time"] = self.s["t"].copy()
+        return self.s["obs"].copy(), out[m + OUT_REWARD], out[m + OUT_FAIL] != 0.0, info
+
+    def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
+        if not self._use_kernel() or self.n != 1:
+            return super().step_single(action)
+        vals = self._kernel_step(action)[:, 0].tolist()
+        m = self._n_info
+        info: dict[str, Any] = dict(zip(self._info_names, vals[:m], strict=True))
+        info["action_clipped"] = vals[m + OUT_CLIPPED] != 0.0
+        info["time"] = float(self.s["t"][0])
+        return self.s["obs"][0].copy(), vals[m + OUT_REWARD], vals[m + OUT_FAIL] != 0.0, info
+
 
     def _energy_info(self, e_el: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         charged = self.energy_cost_basis(e_el[:, None])
         self.s["e_el"] += e_el
         self.s["e_charged"] += charged
-        self.s["p_last"] = e_el / self.control_dt
+        self.s["p_last"][:] = e_el / self.control_dt
         return charged, {"energy_el": e_el.copy(), "energy_charged": charged,
                          "energy_el_total": self.s["e_el"].copy(), "energy_charged_total": self.s["e_charged"].copy(),
                          "power_el": e_el / self.control_dt}
@@ -366,13 +430,14 @@ def _drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarr
 @register_jitable
 def _energy_row(i: int, e_el: float, e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray,
                 cfg: np.ndarray, out: np.ndarray) -> float:
-    """:meth:`ElpasTask._energy_info` for row ``i`` into ``out[i, :N_ENERGY_INFO]``; returns the charged energy."""
+    """:meth:`ElpasTask._energy_info` for row ``i`` into ``out[:5, i]`` (``ENERGY_INFO``); returns the charged
+    energy."""
     charged = max(e_el, 0.0) if cfg[C_REGEN_CLIP] != 0.0 else e_el  # energy_cost_basis of one motor
     e_tot[i] += e_el
     e_ch_tot[i] += charged
     dt = cfg[C_DT]
     p_last[i] = e_el / dt
-    out[i, 0], out[i, 1], out[i, 2], out[i, 3], out[i, 4] = e_el, charged, e_tot[i], e_ch_tot[i], e_el / dt
+    out[0, i], out[1, i], out[2, i], out[3, i], out[4, i] = e_el, charged, e_tot[i], e_ch_tot[i], e_el / dt
     return charged
 
 
@@ -405,21 +470,64 @@ def _drive_rows(x: np.ndarray, cmd: np.ndarray, second_end: np.ndarray, P: np.nd
 @numba.njit(cache=True)
 def _obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
               n_extra: int, rows: np.ndarray) -> np.ndarray:
-    """Observation rows ``(len(rows), 6 + n_extra)``: the common channels, then ``extra[i]`` and, with
-    ``n_extra = 2``, ``extra[i] - force[i]`` (force tracking: reference and error; quarter car: accelerometer)."""
+    """Observation rows ``(len(rows), 6 + n_extra)`` (float64, unclipped)."""
     out = np.empty((rows.shape[0], 6 + n_extra))
     for j in range(rows.shape[0]):
-        i = rows[j]
-        out[j, 0], out[j, 1], out[j, 2], out[j, 3] = meas[i, 0], vel[i, 0], meas[i, 1], vel[i, 1]
-        out[j, 4], out[j, 5], out[j, 6] = cur[i], force[i], extra[i]
-        if n_extra == 2:
-            out[j, 7] = extra[i] - force[i]
+        _obs_row(meas, vel, cur, force, extra, n_extra, rows[j], out[j])
     return out
 
 
+@register_jitable
+def _obs_row(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
+             n_extra: int, i: int, o: np.ndarray) -> None:
+    """Observation of row ``i`` into ``o``: the common channels, then ``extra[i]`` and, with ``n_extra = 2``,
+    ``extra[i] - force[i]`` (force tracking: reference and error; quarter car: accelerometer)."""
+    o[0], o[1], o[2], o[3] = meas[i, 0], vel[i, 0], meas[i, 1], vel[i, 1]
+    o[4], o[5], o[6] = cur[i], force[i], extra[i]
+    if n_extra == 2:
+        o[7] = extra[i] - force[i]
+
+
 @numba.njit(cache=True)
-def _clip_obs_into(obs: np.ndarray, lo: np.ndarray, hi: np.ndarray, out: np.ndarray) -> None:
-    """``out[:] = clip(obs, lo, hi)`` as float32 (``BatchedTask._clip_obs``), in place."""
+def _obs_clip_into(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
+                   n_extra: int, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray) -> None:
+    """Every row's observation, clipped to ``[lo, hi]`` in float64 and stored as float32 into ``obs``
+    (``BatchedTask._clip_obs(_observe(rows))``)."""
     for i in range(obs.shape[0]):
-        for k in range(obs.shape[1]):
-            out[i, k] = min(max(obs[i, k], lo[k]), hi[k])
+        _obs_clip_row(meas, vel, cur, force, extra, n_extra, lo, hi, obs, i)
+
+
+@register_jitable
+def _actions_finite(a: np.ndarray) -> bool:
+    """All actions finite? (checked before the compiled steps change anything)."""
+    for i in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            if not np.isfinite(a[i, k]):
+                return False
+    return True
+
+
+@register_jitable
+def _clip_action(a: np.ndarray, i: int) -> tuple[float, bool]:
+    """Row ``i``'s command clipped to ``[-1, 1]`` and whether it was outside (``task._clip_actions``)."""
+    v = a[i, 0]
+    return min(max(v, -1.0), 1.0), abs(v) > 1.0
+
+
+@register_jitable
+def _n_flagged(flags: np.ndarray) -> int:
+    """Number of nonzero entries (rows flagged by a compiled step)."""
+    k = 0
+    for v in flags:
+        k += v != 0.0
+    return k
+
+
+@register_jitable
+def _obs_clip_row(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
+                  n_extra: int, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, i: int) -> None:
+    """Row ``i`` of :func:`_obs_clip_into`."""
+    o = np.empty(6 + n_extra)
+    _obs_row(meas, vel, cur, force, extra, n_extra, i, o)
+    for k in range(o.shape[0]):
+        obs[i, k] = min(max(o[k], lo[k]), hi[k])

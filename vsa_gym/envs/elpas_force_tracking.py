@@ -10,14 +10,35 @@ import numpy as np
 from vsa_gym.elpas import model as em
 from vsa_gym.envs.elpas_common import (
     C_DT,
+    D_CUR,
+    D_E_CH,
+    D_E_EL,
+    D_FORCE,
+    D_I2T,
+    D_MEAS,
+    D_P_LAST,
+    D_PI,
+    D_VEL,
     ENERGY_INFO,
+    N_OUT_TAIL,
+    OUT_CLIPPED,
+    OUT_F,
+    OUT_FAIL,
+    OUT_NEW_SEGMENT,
+    OUT_REWARD,
+    PARALLEL_MIN_ROWS,
+    STATUS_BAD_ACTION,
     ElpasTask,
+    _actions_finite,
+    _clip_action,
     _drive_margins_row,
     _drive_row,
     _energy_row,
+    _n_flagged,
+    _obs_clip_row,
     _obs_rows,
 )
-from vsa_gym.envs.signals import Multisine, SegmentReference
+from vsa_gym.envs.signals import Multisine, SegmentReference, _multisine_value, _segment_value
 from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
 
@@ -26,6 +47,7 @@ class ForceTrackingTask(ElpasTask):
     """Batched logic of :class:`ElpasForceTrackingEnv` (its docstring documents everything)."""
 
     reward_terms = ("force", "energy", "failure")
+    step_info = (*ENERGY_INFO, "margin_gamma_stop", "margin_i2t", "force_error", "alpha")
     trace_names = ("F_act", "F_ref", "alpha", "gamma", "current", "P_el")
     trace_units = ("N", "N", "rad", "rad", "A", "kW")
     trace_groups = ((0, 1), (2, 3), (4, 5))
@@ -64,23 +86,20 @@ class ForceTrackingTask(ElpasTask):
         self.s["f_ref"][rows] = self.ref.value(self.s, np.zeros(len(rows)), rows)
         self._reset_sensors(rows)
 
-    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """:meth:`BatchedTask.step` with the drive, reward terms and failures of every row in one compiled call
-        (:func:`_force_tracking_row`); Python draws the noise, renews reference segments and builds ``info``.
-        A subclass that replaces :meth:`_advance` gets the generic step."""
-        if type(self)._advance is not ForceTrackingTask._advance:
-            return super().step(action)
-        a, clipped = self.validate_action(action)
-        s = self.s
-        t_new = s["t"] + self.control_dt
-        alpha_end = self.alpha_sig.value(s, t_new)
-        out = np.empty((self.n, N_OUT))
+    def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
+        s, ms, rf = self.s, self.alpha_sig.prefix, self.ref.prefix
         kernel = _force_tracking_rows_par if self.n >= PARALLEL_MIN_ROWS else _force_tracking_rows
-        kernel(s["x"], a, alpha_end, s["f_ref"], self._param_matrix(), s["pi_int"], s["i2t"], s["meas"], s["vel"],
-               s["e_el"], s["e_charged"], s["p_last"], self._cfg, self._weights, out)
-        self._read_analog(self._all_rows, out[:, OUT_F])
-        s["f_ref"] = self.ref.advance(s, t_new, self.rngs)
-        return self._finish_step(out, STEP_INFO, clipped, s["f_ref"])
+        return kernel(a, s["x"], self._param_matrix(), self._cfg, self._weights, s["drive"], s["t"],
+                      s[f"{ms}_A"], s[f"{ms}_w"], s[f"{ms}_phi"], s[f"{ms}_sphi"], s[f"{rf}_kind"], s[f"{rf}_t0"],
+                      s[f"{rf}_T"], s[f"{rf}_v0"], s[f"{rf}_v1"], s[f"{rf}_A"], s[f"{rf}_f"], s["f_ref"],
+                      self._obs_lo64, self._obs_hi64, s["obs"], out)
+
+    def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
+        if renew:  # the compiled step put the ended segments' values at t_new into f_ref
+            s = self.s
+            ended = np.flatnonzero(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
+            self.ref.renew(s, ended, self.rngs, s["t"] + self.control_dt, s["f_ref"])
+        return self.s["f_ref"]
 
     def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
         """The numpy-level step (the generic :meth:`BatchedTask.step`; subclasses may replace it)."""
@@ -123,57 +142,79 @@ class ForceTrackingTask(ElpasTask):
 
 
 # ---------------------------------------------------------------------------- compiled task step
-STEP_INFO = (*ENERGY_INFO, "margin_gamma_stop", "margin_i2t", "force_error", "alpha")
-N_OUT = len(STEP_INFO) + len(ForceTrackingTask.reward_terms) + 3  # + reward, failure flag, true F_act
-OUT_F = N_OUT - 1
-PARALLEL_MIN_ROWS = 64  # rows from which the compiled step runs its row loop on all cores
-
-
 @numba.njit(cache=True)
-def _force_tracking_row(i: int, x: np.ndarray, a: np.ndarray, alpha_end: np.ndarray, f_ref: np.ndarray,
-                        P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
-                        e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, cfg: np.ndarray, w: np.ndarray,
-                        out: np.ndarray) -> None:
-    """Row ``i`` of :meth:`ForceTrackingTask._advance` (physics, energy, margins, reward terms) into ``out[i]``.
+def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray,
+                        drv: np.ndarray, t: np.ndarray, ms_A: np.ndarray, ms_w: np.ndarray, ms_phi: np.ndarray,
+                        ms_sphi: np.ndarray, kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray,
+                        v1: np.ndarray, A: np.ndarray, f: np.ndarray, f_ref: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                        obs: np.ndarray, out: np.ndarray) -> None:
+    """Row ``i`` of :meth:`ForceTrackingTask._advance`: alpha at the end of the step (:class:`Multisine`),
+    physics, energy, margins and reward terms into ``out[:, i]``, then the reference at the new time
+    (:class:`SegmentReference`; ``out[OUT_NEW_SEGMENT]`` flags the rows whose segment has ended) and the
+    observation without noise into ``obs[i]``.
 
-    ``w = [w_force, force_scale, w_energy, failure_penalty]``; the columns of ``out``: ``STEP_INFO``, the
-    reward terms, the reward, the failure flag, the true ``F_act``.
+    ``drv``: ``s["drive"]``; ``w = [w_force, force_scale, w_energy, failure_penalty]``; rows of ``out``:
+    ``step_info``, the reward terms, then the ``OUT_*`` tail.
     """
-    e_el, F, _ = _drive_row(x, i, a[i, 0], alpha_end[i], P, pi_int, i2t, meas, vel, cfg)
-    charged = _energy_row(i, e_el, e_tot, e_ch_tot, p_last, cfg, out)
+    pi_int, i2t, meas, vel = drv[:, D_PI], drv[:, D_I2T], drv[:, D_MEAS:D_MEAS + 2], drv[:, D_VEL:D_VEL + 2]
+    cur, force = drv[:, D_CUR], drv[:, D_FORCE]
+    dt = cfg[C_DT]
+    t_new = t[i] + dt
+    cmd, clipped = _clip_action(a, i)
+    alpha_end = _multisine_value(ms_A, ms_w, ms_phi, ms_sphi, t_new, i)
+    e_el, F, _ = _drive_row(x, i, cmd, alpha_end, P, pi_int, i2t, meas, vel, cfg)
+    cur[i], force[i] = x[i, em.CURRENT], F  # the readings without noise (Python adds it if configured)
+    charged = _energy_row(i, e_el, drv[:, D_E_EL], drv[:, D_E_CH], drv[:, D_P_LAST], cfg, out)
     mg, mi = _drive_margins_row(x, i, i2t, P, cfg)
     err = F - f_ref[i]
     fail = (mg <= 0) or (mi <= 0)
     r_force = -w[0] * (err / w[1]) ** 2
-    r_energy = -w[2] * charged / cfg[C_DT]
+    r_energy = -w[2] * charged / dt
     r_fail = -w[3] if fail else 0.0
-    out[i, 5], out[i, 6], out[i, 7], out[i, 8] = mg, mi, err, x[i, em.ALPHA]
-    out[i, 9], out[i, 10], out[i, 11] = r_force, r_energy, r_fail
-    out[i, 12] = 0.0 + r_force + r_energy + r_fail  # BatchedTask.step's sum, in the order of reward_terms
-    out[i, 13] = 1.0 if fail else 0.0
-    out[i, 14] = F
+    out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, err, x[i, em.ALPHA]
+    out[9, i], out[10, i], out[11, i] = r_force, r_energy, r_fail
+    m = 12
+    out[m + OUT_REWARD, i] = 0.0 + r_force + r_energy + r_fail  # BatchedTask.step's sum, in reward_terms order
+    out[m + OUT_FAIL, i] = 1.0 if fail else 0.0
+    out[m + OUT_CLIPPED, i] = 1.0 if clipped else 0.0
+    out[m + OUT_F, i] = F
+    f_ref[i], ended = _segment_value(kind, t0, T, v0, v1, A, f, t_new, i)
+    out[m + OUT_NEW_SEGMENT, i] = 1.0 if ended else 0.0
+    _obs_clip_row(meas, vel, cur, force, f_ref, 2, lo, hi, obs, i)
 
 
 @numba.njit(cache=True)
-def _force_tracking_rows(x: np.ndarray, a: np.ndarray, alpha_end: np.ndarray, f_ref: np.ndarray, P: np.ndarray,
-                         pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray, e_tot: np.ndarray,
-                         e_ch_tot: np.ndarray, p_last: np.ndarray, cfg: np.ndarray, w: np.ndarray,
-                         out: np.ndarray) -> None:
-    """:func:`_force_tracking_row` for every row."""
+def _force_tracking_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray, drv: np.ndarray,
+                         t: np.ndarray, ms_A: np.ndarray, ms_w: np.ndarray, ms_phi: np.ndarray, ms_sphi: np.ndarray,
+                         kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray, v1: np.ndarray, A: np.ndarray,
+                         f: np.ndarray, f_ref: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray,
+                         out: np.ndarray) -> int:
+    """:func:`_force_tracking_row` for every row: ``STATUS_BAD_ACTION`` (nothing changed) if an action is not
+    finite, else the number of rows whose reference segment has ended."""
+    if not _actions_finite(a):
+        return STATUS_BAD_ACTION
     for i in range(x.shape[0]):
-        _force_tracking_row(i, x, a, alpha_end, f_ref, P, pi_int, i2t, meas, vel, e_tot, e_ch_tot, p_last, cfg, w,
-                            out)
+        _force_tracking_row(i, a, x, P, cfg, w, drv, t, ms_A, ms_w, ms_phi, ms_sphi, kind, t0, T, v0, v1, A, f, f_ref,
+                            lo, hi, obs, out)
+    return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
 
 
 @numba.njit(cache=True, parallel=True)
-def _force_tracking_rows_par(x: np.ndarray, a: np.ndarray, alpha_end: np.ndarray, f_ref: np.ndarray,
-                             P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
-                             e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, cfg: np.ndarray,
-                             w: np.ndarray, out: np.ndarray) -> None:
+def _force_tracking_rows_par(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray,
+                             drv: np.ndarray, t: np.ndarray, ms_A: np.ndarray, ms_w: np.ndarray, ms_phi: np.ndarray,
+                             ms_sphi: np.ndarray, kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray,
+                             v1: np.ndarray, A: np.ndarray, f: np.ndarray, f_ref: np.ndarray, lo: np.ndarray,
+                             hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> int:
     """:func:`_force_tracking_rows` with the rows spread over the cores (rows are independent)."""
+    if not _actions_finite(a):
+        return STATUS_BAD_ACTION
     for i in numba.prange(x.shape[0]):
-        _force_tracking_row(i, x, a, alpha_end, f_ref, P, pi_int, i2t, meas, vel, e_tot, e_ch_tot, p_last, cfg, w,
-                            out)
+        _force_tracking_row(i, a, x, P, cfg, w, drv, t, ms_A, ms_w, ms_phi, ms_sphi, kind, t0, T, v0, v1, A, f, f_ref,
+                            lo, hi, obs, out)
+    return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
+
+
+ForceTrackingTask._kernel_owner = ForceTrackingTask
 
 
 _OBS_DOC = indent(obs_table(ForceTrackingTask(1).obs_channels))

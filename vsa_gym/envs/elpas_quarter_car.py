@@ -12,11 +12,33 @@ from vsa_gym.elpas import model as em
 from vsa_gym.elpas.params import GRAVITY, ElpasParams
 from vsa_gym.envs.elpas_common import (
     C_DT,
+    D_CUR,
+    D_E_CH,
+    D_E_EL,
+    D_FORCE,
+    D_I2T,
+    D_MEAS,
+    D_P_LAST,
+    D_PI,
+    D_VEL,
     ENERGY_INFO,
+    N_OUT_TAIL,
+    OUT_CLIPPED,
+    OUT_F,
+    OUT_FAIL,
+    OUT_NEW_SEGMENT,
+    OUT_REWARD,
+    PARALLEL_MIN_ROWS,
+    STATUS_BAD_ACTION,
+    STATUS_BAD_STATE,
     ElpasTask,
+    _actions_finite,
+    _clip_action,
     _drive_margins_row,
     _drive_row,
     _energy_row,
+    _n_flagged,
+    _obs_clip_row,
     _obs_rows,
 )
 from vsa_gym.envs.sensing import add_noise
@@ -61,6 +83,8 @@ class QuarterCarTask(ElpasTask):
     vehicle = True
     noise_defaults = {"current": 0.2, "force": 5.0, "accel": 0.05}
     reward_terms = ("comfort", "travel", "tyre", "energy", "failure")
+    step_info = (*ENERGY_INFO, "margin_gamma_stop", "margin_i2t", "margin_travel", "margin_tyre_load",
+                 "body_accel", "weighted_accel", "tyre_force", "a_w_rms", "road_height", "suspension_travel")
     trace_names = ("a_s", "a_w", "road", "travel", "F_t/F_0", "P_el")
     trace_units = ("m/s^2", "m/s^2", "m", "m", "-", "kW")
     trace_groups = ((0, 1), (2, 3), (4, 5))
@@ -115,26 +139,22 @@ class QuarterCarTask(ElpasTask):
         self.s["wk_zi"][rows] = 0.0
         self._reset_sensors(rows)
 
-    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """:meth:`BatchedTask.step` with the drive, comfort filter, reward terms and failures of every row in one
-        compiled call (:func:`_quarter_car_row`); Python draws the noise and new road stretches and builds
-        ``info``.  A subclass that replaces :meth:`_advance` gets the generic step."""
-        if type(self)._advance is not QuarterCarTask._advance:
-            return super().step(action)
-        a, clipped = self.validate_action(action)
+    def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
         s = self.s
-        out = np.empty((self.n, N_OUT))
         kernel = _quarter_car_rows_par if self.n >= PARALLEL_MIN_ROWS else _quarter_car_rows
-        finite = kernel(s["x"], a, s["road"], s["road_k"], s["t"], self._param_matrix(), s["pi_int"], s["i2t"],
-                        s["meas"], s["vel"], s["e_el"], s["e_charged"], s["p_last"], self.sos, s["wk_zi"], s["acc"],
-                        s["a_w"], s["aw_sq_sum"], self._cfg, self._weights, out)
-        self._check_finite(finite)
-        self._read_analog(self._all_rows, out[:, OUT_F])
-        if out[:, OUT_NEW_ROAD].any():
-            for i in np.flatnonzero(out[:, OUT_NEW_ROAD]):  # drive on: a fresh stretch continuing at this height
-                self._new_road(int(i), float(out[i, OUT_ROAD]))
-        s["acc_meas"][:] = self._accel_reading(self._all_rows)
-        return self._finish_step(out, STEP_INFO, clipped, s["acc_meas"])
+        return kernel(a, s["x"], self._param_matrix(), self._cfg, self._weights, s["drive"], s["t"], s["road"],
+                      s["road_k"], self.sos, s["wk_zi"], s["acc"], s["acc_meas"], s["a_w"], s["aw_sq_sum"],
+                      self._obs_lo64, self._obs_hi64, s["obs"], out)
+
+    def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
+        if renew:  # drive on: a fresh stretch continuing at this height
+            road_end = out[self.step_info.index("road_height")]
+            for i in np.flatnonzero(out[-N_OUT_TAIL + OUT_NEW_SEGMENT]):
+                self._new_road(int(i), float(road_end[i]))
+        s = self.s
+        if self.noise["accel"]:  # the compiled step stored the reading without noise
+            s["acc_meas"][:] = self._accel_reading(self._all_rows)
+        return s["acc_meas"]
 
     def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
         """The numpy-level step (the generic :meth:`BatchedTask.step`; subclasses may replace it)."""
@@ -236,39 +256,33 @@ def default_task_params() -> ElpasParams:
 
 
 # ---------------------------------------------------------------------------- compiled task step
-STEP_INFO = (*ENERGY_INFO, "margin_gamma_stop", "margin_i2t", "margin_travel", "margin_tyre_load", "body_accel",
-             "weighted_accel", "tyre_force", "a_w_rms", "road_height", "suspension_travel")
-_N_TERMS = len(QuarterCarTask.reward_terms)
-N_OUT = len(STEP_INFO) + _N_TERMS + 4  # + reward, failure flag, true F_act, new-road flag
-OUT_F, OUT_NEW_ROAD = N_OUT - 2, N_OUT - 1
-OUT_ROAD = STEP_INFO.index("road_height")
-PARALLEL_MIN_ROWS = 64  # rows from which the compiled step runs its row loop on all cores
-
-
 @numba.njit(cache=True)
-def _quarter_car_row(i: int, x: np.ndarray, a: np.ndarray, road: np.ndarray, road_k: np.ndarray, t: np.ndarray,
-                     P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
-                     e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, sos: np.ndarray, zi: np.ndarray,
-                     acc_s: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, cfg: np.ndarray, w: np.ndarray,
-                     out: np.ndarray) -> bool:
+def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray,
+                     drv: np.ndarray, t: np.ndarray, road: np.ndarray, road_k: np.ndarray, sos: np.ndarray,
+                     zi: np.ndarray, acc_s: np.ndarray, acc_meas: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray,
+                     lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> bool:
     """Row ``i`` of :meth:`QuarterCarTask._advance` (road sample, physics, W_k filter, energy, margins, reward
-    terms) into ``out[i]``; returns whether the new state is finite.
+    terms) into ``out[:, i]``; returns whether the new state is finite.
 
-    ``w = [w_comfort, w_travel, w_tyre, w_energy, accel_scale, travel_soft, failure_penalty]``; the columns of
-    ``out``: ``STEP_INFO``, the reward terms, the reward, the failure flag, the true ``F_act``, and 1 where the
-    road stretch has ended (Python draws the next one).
+    ``w = [w_comfort, w_travel, w_tyre, w_energy, accel_scale, travel_soft, failure_penalty]``; rows of ``out``:
+    ``step_info``, the reward terms, then the ``OUT_*`` tail (``OUT_NEW_SEGMENT``: the road stretch has ended,
+    Python draws the next one); the observation without noise into ``obs[i]``.  ``drv``: ``s["drive"]``.
     """
+    pi_int, i2t, meas, vel = drv[:, D_PI], drv[:, D_I2T], drv[:, D_MEAS:D_MEAS + 2], drv[:, D_VEL:D_VEL + 2]
+    cur, force = drv[:, D_CUR], drv[:, D_FORCE]
     road_steps = road.shape[1] - 1
     dt = cfg[C_DT]
+    cmd, clipped = _clip_action(a, i)
     k = road_k[i] + 1
     road_end = road[i, min(k, road_steps)]
     v_before = x[i, em.V_S]
-    e_el, F, finite = _drive_row(x, i, a[i, 0], road_end, P, pi_int, i2t, meas, vel, cfg)
+    e_el, F, finite = _drive_row(x, i, cmd, road_end, P, pi_int, i2t, meas, vel, cfg)
+    cur[i], force[i] = x[i, em.CURRENT], F  # the readings without noise (Python adds it if configured)
     road_k[i] = k
-    charged = _energy_row(i, e_el, e_tot, e_ch_tot, p_last, cfg, out)
+    charged = _energy_row(i, e_el, drv[:, D_E_EL], drv[:, D_E_CH], drv[:, D_P_LAST], cfg, out)
     acc = (x[i, em.V_S] - v_before) / dt
     aw = _sos_row(sos, acc, zi, i)  # the streaming ISO 2631-1 W_k filter of sos_step
-    acc_s[i], a_w[i] = acc, aw
+    acc_s[i], acc_meas[i], a_w[i] = acc, acc, aw  # reading without noise (Python adds it if configured)
     aw_sq[i] += aw**2
     p = em._matrix_row_params(P, i)
     alpha = x[i, em.ALPHA]
@@ -284,46 +298,55 @@ def _quarter_car_row(i: int, x: np.ndarray, a: np.ndarray, road: np.ndarray, roa
     r_energy = -w[3] * charged / dt
     r_fail = -w[6] if fail else 0.0
     t_new = t[i] + dt
-    out[i, 5], out[i, 6], out[i, 7], out[i, 8] = mg, mi, mt, F_t / F0
-    out[i, 9], out[i, 10], out[i, 11] = acc, aw, F_t
-    out[i, 12] = np.sqrt(aw_sq[i] / max(t_new / dt, 1.0))
-    out[i, 13], out[i, 14] = road_end, p.cone.l * np.sin(alpha)
-    out[i, 15], out[i, 16], out[i, 17], out[i, 18], out[i, 19] = r_comfort, r_travel, r_tyre, r_energy, r_fail
-    out[i, 20] = 0.0 + r_comfort + r_travel + r_tyre + r_energy + r_fail  # BatchedTask.step's sum
-    out[i, 21] = 1.0 if fail else 0.0
-    out[i, 22] = F
-    out[i, 23] = 1.0 if k >= road_steps else 0.0
+    out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, mt, F_t / F0
+    out[9, i], out[10, i], out[11, i] = acc, aw, F_t
+    out[12, i] = np.sqrt(aw_sq[i] / max(t_new / dt, 1.0))
+    out[13, i], out[14, i] = road_end, p.cone.l * np.sin(alpha)
+    out[15, i], out[16, i], out[17, i], out[18, i], out[19, i] = r_comfort, r_travel, r_tyre, r_energy, r_fail
+    m = 20
+    out[m + OUT_REWARD, i] = 0.0 + r_comfort + r_travel + r_tyre + r_energy + r_fail  # BatchedTask.step's sum
+    out[m + OUT_FAIL, i] = 1.0 if fail else 0.0
+    out[m + OUT_CLIPPED, i] = 1.0 if clipped else 0.0
+    out[m + OUT_F, i] = F
+    out[m + OUT_NEW_SEGMENT, i] = 1.0 if k >= road_steps else 0.0
+    _obs_clip_row(meas, vel, cur, force, acc_meas, 1, lo, hi, obs, i)
     return finite
 
 
 @numba.njit(cache=True)
-def _quarter_car_rows(x: np.ndarray, a: np.ndarray, road: np.ndarray, road_k: np.ndarray, t: np.ndarray,
-                      P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
-                      e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, sos: np.ndarray, zi: np.ndarray,
-                      acc_s: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, cfg: np.ndarray, w: np.ndarray,
-                      out: np.ndarray) -> bool:
-    """:func:`_quarter_car_row` for every row; returns whether every new state is finite."""
+def _quarter_car_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray, drv: np.ndarray,
+                      t: np.ndarray, road: np.ndarray, road_k: np.ndarray, sos: np.ndarray, zi: np.ndarray,
+                      acc_s: np.ndarray, acc_meas: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, lo: np.ndarray,
+                      hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> int:
+    """:func:`_quarter_car_row` for every row: ``STATUS_BAD_ACTION`` (nothing changed) if an action is not finite,
+    ``STATUS_BAD_STATE`` if a new state is not finite, else the number of rows whose road stretch has ended."""
+    if not _actions_finite(a):
+        return STATUS_BAD_ACTION
     ok = True
     for i in range(x.shape[0]):
-        fin = _quarter_car_row(i, x, a, road, road_k, t, P, pi_int, i2t, meas, vel, e_tot, e_ch_tot, p_last, sos,
-                               zi, acc_s, a_w, aw_sq, cfg, w, out)
+        fin = _quarter_car_row(i, a, x, P, cfg, w, drv, t, road, road_k, sos, zi, acc_s, acc_meas, a_w, aw_sq, lo,
+                               hi, obs, out)
         ok = ok and fin
-    return ok
+    return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT]) if ok else STATUS_BAD_STATE
 
 
 @numba.njit(cache=True, parallel=True)
-def _quarter_car_rows_par(x: np.ndarray, a: np.ndarray, road: np.ndarray, road_k: np.ndarray, t: np.ndarray,
-                          P: np.ndarray, pi_int: np.ndarray, i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray,
-                          e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray, sos: np.ndarray,
-                          zi: np.ndarray, acc_s: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, cfg: np.ndarray,
-                          w: np.ndarray, out: np.ndarray) -> bool:
+def _quarter_car_rows_par(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray, drv: np.ndarray,
+                          t: np.ndarray, road: np.ndarray, road_k: np.ndarray, sos: np.ndarray, zi: np.ndarray,
+                          acc_s: np.ndarray, acc_meas: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, lo: np.ndarray,
+                          hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> int:
     """:func:`_quarter_car_rows` with the rows spread over the cores (rows are independent)."""
+    if not _actions_finite(a):
+        return STATUS_BAD_ACTION
     bad = 0
     for i in numba.prange(x.shape[0]):
-        if not _quarter_car_row(i, x, a, road, road_k, t, P, pi_int, i2t, meas, vel, e_tot, e_ch_tot, p_last, sos,
-                                zi, acc_s, a_w, aw_sq, cfg, w, out):
+        if not _quarter_car_row(i, a, x, P, cfg, w, drv, t, road, road_k, sos, zi, acc_s, acc_meas, a_w, aw_sq, lo,
+                                hi, obs, out):
             bad += 1
-    return bad == 0
+    return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT]) if bad == 0 else STATUS_BAD_STATE
+
+
+QuarterCarTask._kernel_owner = QuarterCarTask
 
 
 _OBS_DOC = indent(obs_table(QuarterCarTask(1).obs_channels))

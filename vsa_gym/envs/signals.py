@@ -21,6 +21,7 @@ from collections.abc import Sequence
 
 import numba
 import numpy as np
+from numba.extending import register_jitable
 
 STEP, RAMP, SINE = 0, 1, 2
 KIND_NAMES = ("step", "ramp", "sine")
@@ -87,10 +88,15 @@ class SegmentReference:
         """Value at times ``t`` (all rows), renewing the segments that have ended."""
         v, ended_mask, n_ended = _segment_values(*self._cols(s, slice(None)), np.asarray(t, dtype=np.float64))
         if n_ended:
-            ended = np.flatnonzero(ended_mask)
-            self.start(s, ended, rngs, t[ended], v[ended])
-            v[ended] = self.value(s, t[ended], ended)
+            self.renew(s, np.flatnonzero(ended_mask), rngs, t, v)
         return v
+
+    def renew(self, s: dict[str, np.ndarray], ended: np.ndarray, rngs: list[np.random.Generator], t: np.ndarray,
+              v: np.ndarray) -> None:
+        """Start new segments in the ``ended`` rows at times ``t[ended]`` from ``v[ended]`` (all rows' values at
+        ``t``), and put the new segments' values at ``t`` into ``v`` (in place)."""
+        self.start(s, ended, rngs, t[ended], v[ended])
+        v[ended] = self.value(s, t[ended], ended)
 
 
 @numba.njit(cache=True)
@@ -107,16 +113,23 @@ def _segment_values(kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndar
     ended = np.empty(n, dtype=np.bool_)
     n_ended = 0
     for i in range(n):
-        tau = t[i] - t0[i]
-        if kind[i] == STEP:
-            out[i] = v1[i]
-        elif kind[i] == RAMP:
-            out[i] = v0[i] + (v1[i] - v0[i]) * min(max(tau / T[i], 0.0), 1.0)
-        else:
-            out[i] = v0[i] + A[i] * np.sin(2.0 * np.pi * f[i] * tau)
-        ended[i] = t[i] >= t0[i] + T[i]
+        out[i], ended[i] = _segment_value(kind, t0, T, v0, v1, A, f, t[i], i)
         n_ended += ended[i]
     return out, ended, n_ended
+
+
+@register_jitable
+def _segment_value(kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray, v1: np.ndarray, A: np.ndarray,
+                   f: np.ndarray, t: float, i: int) -> tuple[float, bool]:
+    """Row ``i`` of :func:`_segment_values` at time ``t``: ``(value, ended)``."""
+    tau = t - t0[i]
+    if kind[i] == STEP:
+        v = v1[i]
+    elif kind[i] == RAMP:
+        v = v0[i] + (v1[i] - v0[i]) * min(max(tau / T[i], 0.0), 1.0)
+    else:
+        v = v0[i] + A[i] * np.sin(2.0 * np.pi * f[i] * tau)
+    return v, t >= t0[i] + T[i]
 
 
 class Multisine:
@@ -171,26 +184,42 @@ def _multisine_values(A: np.ndarray, w: np.ndarray, phi: np.ndarray, sphi: np.nd
     The sum is numpy's pairwise summation for fewer than 128 terms (eight partial sums, combined pairwise,
     then the remainder), so the values equal the numpy expression's ``np.sum(..., axis=-1)`` term by term.
     """
-    n, k = A.shape
-    out = np.empty(n)
-    r = np.empty(8)
-    for i in range(n):
-        tt = t[i]
-        if k < 8:
-            acc = 0.0
-            for j in range(k):
-                acc += A[i, j] * (np.sin(w[i, j] * tt + phi[i, j]) - sphi[i, j])
-        else:
-            for j in range(8):
-                r[j] = A[i, j] * (np.sin(w[i, j] * tt + phi[i, j]) - sphi[i, j])
-            j = 8
-            while j <= k - 8:
-                for q in range(8):
-                    r[q] += A[i, j + q] * (np.sin(w[i, j + q] * tt + phi[i, j + q]) - sphi[i, j + q])
-                j += 8
-            acc = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-            while j < k:
-                acc += A[i, j] * (np.sin(w[i, j] * tt + phi[i, j]) - sphi[i, j])
-                j += 1
-        out[i] = 0.5 * acc
+    out = np.empty(A.shape[0])
+    for i in range(A.shape[0]):
+        out[i] = _multisine_value(A, w, phi, sphi, t[i], i)
     return out
+
+
+@register_jitable
+def _multisine_value(A: np.ndarray, w: np.ndarray, phi: np.ndarray, sphi: np.ndarray, tt: float, i: int) -> float:
+    """Row ``i`` of :func:`_multisine_values` at time ``tt``."""
+    k = A.shape[1]
+    if k < 8:
+        acc = 0.0
+        for j in range(k):
+            acc += A[i, j] * (np.sin(w[i, j] * tt + phi[i, j]) - sphi[i, j])
+    else:
+        r0 = A[i, 0] * (np.sin(w[i, 0] * tt + phi[i, 0]) - sphi[i, 0])
+        r1 = A[i, 1] * (np.sin(w[i, 1] * tt + phi[i, 1]) - sphi[i, 1])
+        r2 = A[i, 2] * (np.sin(w[i, 2] * tt + phi[i, 2]) - sphi[i, 2])
+        r3 = A[i, 3] * (np.sin(w[i, 3] * tt + phi[i, 3]) - sphi[i, 3])
+        r4 = A[i, 4] * (np.sin(w[i, 4] * tt + phi[i, 4]) - sphi[i, 4])
+        r5 = A[i, 5] * (np.sin(w[i, 5] * tt + phi[i, 5]) - sphi[i, 5])
+        r6 = A[i, 6] * (np.sin(w[i, 6] * tt + phi[i, 6]) - sphi[i, 6])
+        r7 = A[i, 7] * (np.sin(w[i, 7] * tt + phi[i, 7]) - sphi[i, 7])
+        j = 8
+        while j <= k - 8:
+            r0 += A[i, j] * (np.sin(w[i, j] * tt + phi[i, j]) - sphi[i, j])
+            r1 += A[i, j + 1] * (np.sin(w[i, j + 1] * tt + phi[i, j + 1]) - sphi[i, j + 1])
+            r2 += A[i, j + 2] * (np.sin(w[i, j + 2] * tt + phi[i, j + 2]) - sphi[i, j + 2])
+            r3 += A[i, j + 3] * (np.sin(w[i, j + 3] * tt + phi[i, j + 3]) - sphi[i, j + 3])
+            r4 += A[i, j + 4] * (np.sin(w[i, j + 4] * tt + phi[i, j + 4]) - sphi[i, j + 4])
+            r5 += A[i, j + 5] * (np.sin(w[i, j + 5] * tt + phi[i, j + 5]) - sphi[i, j + 5])
+            r6 += A[i, j + 6] * (np.sin(w[i, j + 6] * tt + phi[i, j + 6]) - sphi[i, j + 6])
+            r7 += A[i, j + 7] * (np.sin(w[i, j + 7] * tt + phi[i, j + 7]) - sphi[i, j + 7])
+            j += 8
+        acc = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        while j < k:
+            acc += A[i, j] * (np.sin(w[i, j] * tt + phi[i, j]) - sphi[i, j])
+            j += 1
+    return 0.5 * acc

@@ -194,6 +194,12 @@ class BatchedTask(ABC):
         info["time"] = self.s["t"].copy()
         return self.s["obs"].copy(), reward, terminated, info
 
+    def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
+        """:meth:`step` of row 0 as a single environment returns it: ``(obs, reward, terminated, info)`` with
+        Python scalars in ``info`` (:class:`TaskEnv`; tasks with a compiled step build this directly)."""
+        obs, reward, terminated, info = self.step(action)
+        return obs[0], float(reward[0]), bool(terminated[0]), _row_info(info, 0)
+
     def observation(self) -> np.ndarray:
         return self.s["obs"].copy()
 
@@ -328,8 +334,8 @@ class TaskEnv(gym.Env[np.ndarray, np.ndarray]):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if not self._has_reset:
             raise RuntimeError("call reset() before step()")
-        obs, reward, terminated, info = self.task.step(np.asarray(action)[None, ...])
-        return obs[0], float(reward[0]), bool(terminated[0]), False, _row_info(info, 0)
+        obs, reward, terminated, info = self.task.step_single(np.asarray(action)[None, ...])
+        return obs, reward, terminated, False, info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
