@@ -445,11 +445,13 @@ def _integrate_row(x: np.ndarray, u: float, rate: float, p: ElpasParams, dt: flo
     c = p.drive.N * p.friction.s1
     J = p.drive.J_r
     h = dt / n_sub
-    y = x.copy()
+    work = np.empty((8, nx))  # one allocation for the stages (small arrays cost more to allocate than to fill)
+    y, k1, k2, k3, k4, ya, yb, yc = work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7]
+    pws = np.empty((4, N_POWER))
+    p1, p2, p3, p4 = pws[0], pws[1], pws[2], pws[3]
+    for j in range(nx):
+        y[j] = x[j]
     y[OMEGA] = J * x[OMEGA] + c * x[BRISTLE]
-    k1, k2, k3, k4 = np.empty(nx), np.empty(nx), np.empty(nx), np.empty(nx)
-    ya, yb, yc = np.empty(nx), np.empty(nx), np.empty(nx)
-    p1, p2, p3, p4 = np.empty(N_POWER), np.empty(N_POWER), np.empty(N_POWER), np.empty(N_POWER)
     for j in range(N_POWER):
         e_out[j] = 0.0
     for _ in range(n_sub):
