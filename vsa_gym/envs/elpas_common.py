@@ -26,7 +26,7 @@ drive (nominal 25 A [proposed], peak 75 A for 2 s).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 import numba
@@ -156,7 +156,9 @@ class ElpasTask(BatchedTask):
         self._n_info = len(self._info_names)
         #: any sensor noise? (then the compiled step's noise-free observation is recomputed after the draws)
         self._noisy = any(v != 0.0 for v in self.noise.values())
+        self._analog_noisy = bool(self.noise["current"] or self.noise["force"])
         self._P_memo: tuple[Any, np.ndarray] | None = None
+        self._args_memo: tuple[Any, np.ndarray, tuple[Any, ...]] | None = None
 
     # ------------------------------------------------------------------ parameters
     def _build_params(self) -> None:
@@ -258,10 +260,25 @@ class ElpasTask(BatchedTask):
         owner = self._kernel_owner
         return owner is not None and type(self)._advance is owner._advance
 
+    #: the task's compiled steps: (row loop, row loop over all cores)
+    _kernels: ClassVar[tuple[Callable[..., int], Callable[..., int]] | None] = None
+
+    def _build_kernel_args(self) -> tuple[Any, ...]:
+        """The arrays the task's compiled step takes between the actions and ``out``."""
+        raise NotImplementedError
+
     def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
         """Run the task's compiled step on the raw actions ``a`` ``(n, 1)``. Returns ``STATUS_BAD_ACTION``
-        (nothing changed), ``STATUS_BAD_STATE`` or the number of rows flagged in ``out[OUT_NEW_SEGMENT]``."""
-        raise NotImplementedError
+        (nothing changed), ``STATUS_BAD_STATE`` or the number of rows flagged in ``out[OUT_NEW_SEGMENT]``.
+
+        The argument tuple is kept until the parameter set changes: the state arrays are only ever written
+        in place (reset, snapshot restore, the compiled step).
+        """
+        memo = self._args_memo
+        if memo is None or memo[0] is not self.params or memo[1] is not self.s["x"]:
+            memo = self._args_memo = (self.params, self.s["x"], self._build_kernel_args())
+        assert self._kernels is not None
+        return self._kernels[self.n >= PARALLEL_MIN_ROWS](a, *memo[2], out)
 
     def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
         """Python part after the compiled step (random draws in the numpy path's order; ``renew``: some row is
@@ -281,15 +298,15 @@ class ElpasTask(BatchedTask):
         if status == STATUS_BAD_ACTION:
             self.validate_action(action)  # raises ValueError naming the component; nothing was changed
         self._check_finite(status != STATUS_BAD_STATE)
-        if self.noise["current"] or self.noise["force"]:
+        if self._analog_noisy:
             self._read_analog(self._all_rows, out[-N_OUT_TAIL + OUT_F])
-        extra = self._after_kernel(out, status > 0)
+        extra = self._after_kernel(out, status > 0)  # the compiled step has advanced s["t"]
         s = self.s
-        s["t"] += self.control_dt
         if status > 0 or self._noisy:  # the compiled step's observation lacks the noise or a renewed segment
             _obs_clip_into(s["meas"], s["vel"], s["cur"], s["force"], extra, len(self._channels) - 6,
                            self._obs_lo64, self._obs_hi64, s["obs"])
-        self._record(self._all_rows)
+        if self.record_history:
+            self._record(self._all_rows)
         return out
 
     def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
@@ -307,13 +324,12 @@ class ElpasTask(BatchedTask):
     def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
         if not self._use_kernel() or self.n != 1:
             return super().step_single(action)
-        vals = self._kernel_step(action)[:, 0].tolist()
+        vals = self._kernel_step(action).ravel().tolist()  # (n_out, 1): row 0
         m = self._n_info
-        info: dict[str, Any] = dict(zip(self._info_names, vals[:m], strict=True))
+        info: dict[str, Any] = dict(zip(self._info_names, vals, strict=False))  # the first m values
         info["action_clipped"] = vals[m + OUT_CLIPPED] != 0.0
         info["time"] = float(self.s["t"][0])
         return self.s["obs"][0].copy(), vals[m + OUT_REWARD], vals[m + OUT_FAIL] != 0.0, info
-
 
     def _energy_info(self, e_el: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         charged = self.energy_cost_basis(e_el[:, None])

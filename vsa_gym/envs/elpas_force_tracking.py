@@ -26,7 +26,6 @@ from vsa_gym.envs.elpas_common import (
     OUT_FAIL,
     OUT_NEW_SEGMENT,
     OUT_REWARD,
-    PARALLEL_MIN_ROWS,
     STATUS_BAD_ACTION,
     ElpasTask,
     _actions_finite,
@@ -86,19 +85,18 @@ class ForceTrackingTask(ElpasTask):
         self.s["f_ref"][rows] = self.ref.value(self.s, np.zeros(len(rows)), rows)
         self._reset_sensors(rows)
 
-    def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
+    def _build_kernel_args(self) -> tuple[Any, ...]:
         s, ms, rf = self.s, self.alpha_sig.prefix, self.ref.prefix
-        kernel = _force_tracking_rows_par if self.n >= PARALLEL_MIN_ROWS else _force_tracking_rows
-        return kernel(a, s["x"], self._param_matrix(), self._cfg, self._weights, s["drive"], s["t"],
-                      s[f"{ms}_A"], s[f"{ms}_w"], s[f"{ms}_phi"], s[f"{ms}_sphi"], s[f"{rf}_kind"], s[f"{rf}_t0"],
-                      s[f"{rf}_T"], s[f"{rf}_v0"], s[f"{rf}_v1"], s[f"{rf}_A"], s[f"{rf}_f"], s["f_ref"],
-                      self._obs_lo64, self._obs_hi64, s["obs"], out)
+        return (s["x"], self._param_matrix(), self._cfg, self._weights, s["drive"], s["t"], s[f"{ms}_A"],
+                s[f"{ms}_w"], s[f"{ms}_phi"], s[f"{ms}_sphi"], s[f"{rf}_kind"], s[f"{rf}_t0"], s[f"{rf}_T"],
+                s[f"{rf}_v0"], s[f"{rf}_v1"], s[f"{rf}_A"], s[f"{rf}_f"], s["f_ref"], self._obs_lo64, self._obs_hi64,
+                s["obs"])
 
     def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
         if renew:  # the compiled step put the ended segments' values at t_new into f_ref
             s = self.s
             ended = np.flatnonzero(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
-            self.ref.renew(s, ended, self.rngs, s["t"] + self.control_dt, s["f_ref"])
+            self.ref.renew(s, ended, self.rngs, s["t"], s["f_ref"])  # t: already t_new
         return self.s["f_ref"]
 
     def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
@@ -151,7 +149,7 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     """Row ``i`` of :meth:`ForceTrackingTask._advance`: alpha at the end of the step (:class:`Multisine`),
     physics, energy, margins and reward terms into ``out[:, i]``, then the reference at the new time
     (:class:`SegmentReference`; ``out[OUT_NEW_SEGMENT]`` flags the rows whose segment has ended) and the
-    observation without noise into ``obs[i]``.
+    observation without noise into ``obs[i]``; advances ``t[i]``.
 
     ``drv``: ``s["drive"]``; ``w = [w_force, force_scale, w_energy, failure_penalty]``; rows of ``out``:
     ``step_info``, the reward terms, then the ``OUT_*`` tail.
@@ -181,6 +179,7 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     f_ref[i], ended = _segment_value(kind, t0, T, v0, v1, A, f, t_new, i)
     out[m + OUT_NEW_SEGMENT, i] = 1.0 if ended else 0.0
     _obs_clip_row(meas, vel, cur, force, f_ref, 2, lo, hi, obs, i)
+    t[i] = t_new  # BatchedTask.step's time update
 
 
 @numba.njit(cache=True)
@@ -215,6 +214,7 @@ def _force_tracking_rows_par(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
 
 
 ForceTrackingTask._kernel_owner = ForceTrackingTask
+ForceTrackingTask._kernels = (_force_tracking_rows, _force_tracking_rows_par)
 
 
 _OBS_DOC = indent(obs_table(ForceTrackingTask(1).obs_channels))

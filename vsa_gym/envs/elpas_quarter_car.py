@@ -28,7 +28,6 @@ from vsa_gym.envs.elpas_common import (
     OUT_FAIL,
     OUT_NEW_SEGMENT,
     OUT_REWARD,
-    PARALLEL_MIN_ROWS,
     STATUS_BAD_ACTION,
     STATUS_BAD_STATE,
     ElpasTask,
@@ -139,12 +138,11 @@ class QuarterCarTask(ElpasTask):
         self.s["wk_zi"][rows] = 0.0
         self._reset_sensors(rows)
 
-    def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
+    def _build_kernel_args(self) -> tuple[Any, ...]:
         s = self.s
-        kernel = _quarter_car_rows_par if self.n >= PARALLEL_MIN_ROWS else _quarter_car_rows
-        return kernel(a, s["x"], self._param_matrix(), self._cfg, self._weights, s["drive"], s["t"], s["road"],
-                      s["road_k"], self.sos, s["wk_zi"], s["acc"], s["acc_meas"], s["a_w"], s["aw_sq_sum"],
-                      self._obs_lo64, self._obs_hi64, s["obs"], out)
+        return (s["x"], self._param_matrix(), self._cfg, self._weights, s["drive"], s["t"], s["road"], s["road_k"],
+                self.sos, s["wk_zi"], s["acc"], s["acc_meas"], s["a_w"], s["aw_sq_sum"], self._obs_lo64,
+                self._obs_hi64, s["obs"])
 
     def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
         if renew:  # drive on: a fresh stretch continuing at this height
@@ -266,7 +264,8 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
 
     ``w = [w_comfort, w_travel, w_tyre, w_energy, accel_scale, travel_soft, failure_penalty]``; rows of ``out``:
     ``step_info``, the reward terms, then the ``OUT_*`` tail (``OUT_NEW_SEGMENT``: the road stretch has ended,
-    Python draws the next one); the observation without noise into ``obs[i]``.  ``drv``: ``s["drive"]``.
+    Python draws the next one); the observation without noise into ``obs[i]``; advances ``t[i]``.
+    ``drv``: ``s["drive"]``.
     """
     pi_int, i2t, meas, vel = drv[:, D_PI], drv[:, D_I2T], drv[:, D_MEAS:D_MEAS + 2], drv[:, D_VEL:D_VEL + 2]
     cur, force = drv[:, D_CUR], drv[:, D_FORCE]
@@ -310,6 +309,7 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     out[m + OUT_F, i] = F
     out[m + OUT_NEW_SEGMENT, i] = 1.0 if k >= road_steps else 0.0
     _obs_clip_row(meas, vel, cur, force, acc_meas, 1, lo, hi, obs, i)
+    t[i] = t_new  # BatchedTask.step's time update
     return finite
 
 
@@ -347,6 +347,7 @@ def _quarter_car_rows_par(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.n
 
 
 QuarterCarTask._kernel_owner = QuarterCarTask
+QuarterCarTask._kernels = (_quarter_car_rows, _quarter_car_rows_par)
 
 
 _OBS_DOC = indent(obs_table(QuarterCarTask(1).obs_channels))
