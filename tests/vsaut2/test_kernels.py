@@ -140,3 +140,13 @@ def test_batch_equals_rows_one_by_one(integrator):
     for i in range(n):
         xi, ei = model.step(x[i:i + 1], u[i:i + 1], tau[i:i + 1], 2e-3)
         assert _same_bits(xb[i], xi[0]) and _same_bits(eb[i], ei[0]), f"row {i}"
+
+
+def test_serial_and_parallel_kernels_have_their_own_cache_entries():
+    """numba's cache key ignores ``parallel``: the two compilations of a kernel must not share a function name."""
+    from vsa_gym.vsaut2 import model as core
+
+    for serial, parallel in ((core._rk4_compiled, core._rk4_compiled_parallel),
+                             (core._etd_compiled, core._etd_compiled_parallel)):
+        assert serial.py_func.__qualname__ != parallel.py_func.__qualname__
+        assert serial.py_func.__code__ is parallel.py_func.__code__  # the same kernel, compiled twice

@@ -58,6 +58,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import types
 from collections.abc import Mapping
 from typing import Any, NamedTuple, Protocol
 
@@ -591,12 +592,21 @@ def _etd_rows_py(
     h = dt / n_sub
     x_new = np.empty((n, N_STATES))
     energy = np.zeros((n, N_POWER))
+    # rates and weights of row 0; every row's when the parameters are shared (not batched): computed once
+    p0 = _P_ROW(P, 0)
+    lam0 = np.array([p0.pivot_motor.R / p0.pivot_motor.L, p0.frame_motor.R / p0.frame_motor.L])
+    w0 = etdrk4_weights(lam0, h)
+    shared = P.shape[0] == 1
     for i in numba.prange(n):
         p = _P_ROW(P, i)
         d = _D_ROW(D, i)
         u_1, u_2, te = u[i, 0], u[i, 1], tau[i]
-        lam = np.array([p.pivot_motor.R / p.pivot_motor.L, p.frame_motor.R / p.frame_motor.L])
-        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)  # constant over the step
+        if shared:
+            lam = lam0
+            e_half, w_half, e_full, f_u, f_ab, f_c = w0
+        else:
+            lam = np.array([p.pivot_motor.R / p.pivot_motor.L, p.frame_motor.R / p.frame_motor.L])
+            e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)  # constant over the step
         y = x[i].copy()
         ya = np.empty(N_STATES)
         yb = np.empty(N_STATES)
@@ -661,8 +671,24 @@ def _all_finite(a: np.ndarray) -> bool:
 #: Rows at and above which the compiled step runs its row loop on all cores (numba ``prange``).
 PARALLEL_MIN_ROWS = 64
 
+
+
+def _parallel_twin(f: Any) -> Any:
+    """``f`` under the name ``<name>_parallel``, for its ``parallel=True`` compilation.
+
+    numba names a cache entry after the function's qualified name and first line, and its index key
+    (signature, CPU, bytecode) does not include ``parallel``: compiled twice from the same function,
+    the serial and the parallel kernels share one cache entry, and whichever was saved first is loaded
+    for both -- one env then ran the threaded kernel (tens of us of thread start-up per step), or a
+    vector env the serial one.  The twin has its own entry.
+    """
+    twin = types.FunctionType(f.__code__, f.__globals__, f.__name__ + "_parallel", f.__defaults__, f.__closure__)
+    twin.__qualname__ = f.__qualname__ + "_parallel"
+    return twin
+
+
 _rhs_compiled = numba.njit(cache=True)(_rhs_rows_py)
 _rk4_compiled = numba.njit(cache=True)(_rk4_rows_py)
-_rk4_compiled_parallel = numba.njit(cache=True, parallel=True)(_rk4_rows_py)
+_rk4_compiled_parallel = numba.njit(cache=True, parallel=True)(_parallel_twin(_rk4_rows_py))
 _etd_compiled = numba.njit(cache=True)(_etd_rows_py)
-_etd_compiled_parallel = numba.njit(cache=True, parallel=True)(_etd_rows_py)
+_etd_compiled_parallel = numba.njit(cache=True, parallel=True)(_parallel_twin(_etd_rows_py))
