@@ -1,8 +1,8 @@
 """The eLPAS environments' compiled task step equals their numpy-level step (``_advance``) row by row.
 
 ``ForceTrackingTask.step`` / ``QuarterCarTask.step`` run the drive, reward terms, margins, failures and the
-observation of every row in one compiled call (``n >= 64``: the row loop on all cores); the generic
-``BatchedTask.step`` runs the tasks' numpy ``_advance``.  Both must give the same observations, rewards,
+observation of every row in one compiled call (``parallel_rows`` and ``n >= 64``: the row loop on all cores);
+the generic ``BatchedTask.step`` runs the tasks' numpy ``_advance``.  Both must give the same observations, rewards,
 terminations and info, including steps where a reference segment or a road stretch is renewed and with
 sensor noise (the random draws must come in the same order).
 """
@@ -21,11 +21,11 @@ from vsa_gym.envs.task import BatchedTask
 CASES = [
     (ForceTrackingTask, {}, 3),
     (ForceTrackingTask, {"control_mode": "current", "sensor_noise": True}, 3),
-    (ForceTrackingTask, {"domain_randomization": {"friction.F_c": (0.15, 0.3)}}, 70),  # parallel row loop
+    (ForceTrackingTask, {"domain_randomization": {"friction.F_c": (0.15, 0.3)}, "parallel_rows": True}, 70),
     (QuarterCarTask, {"road_duration_s": 0.05}, 3),  # a new road stretch every 25 steps
     (QuarterCarTask, {"control_mode": "current", "sensor_noise": True, "control_dt": 1e-3,
                       "road_duration_s": 0.03}, 2),
-    (QuarterCarTask, {"road_duration_s": 0.05}, 70),
+    (QuarterCarTask, {"road_duration_s": 0.05, "parallel_rows": True}, 70),
 ]
 
 

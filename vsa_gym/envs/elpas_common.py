@@ -96,6 +96,7 @@ class ElpasTask(BatchedTask):
         i_nominal: float = 25.0,
         i2t_trip_s: float = 2.0,
         velocity_cutoff_hz: float = 50.0,
+        parallel_rows: bool = False,
     ) -> None:
         super().__init__(n, control_dt=control_dt, control_mode=control_mode, sensor_noise=sensor_noise,
                          domain_randomization=domain_randomization, regen=regen)
@@ -159,6 +160,11 @@ class ElpasTask(BatchedTask):
         self._analog_noisy = bool(self.noise["current"] or self.noise["force"])
         self._P_memo: tuple[Any, np.ndarray] | None = None
         self._args_memo: tuple[Any, np.ndarray, tuple[Any, ...]] | None = None
+        #: run the compiled step's row loop on all cores (numba ``prange``) from ``PARALLEL_MIN_ROWS`` rows.
+        #: Off by default: on this shared 2-core machine the OpenMP workers' waiting cost far more than the
+        #: second core gave (vector ELPAS-ForceTracking-v0, load average 9-11: n=64 4.3k instead of 51k
+        #: env-steps/s, n=1024 33k instead of 54k; docs/performance.md)
+        self._parallel = bool(parallel_rows) and self.n >= PARALLEL_MIN_ROWS
 
     # ------------------------------------------------------------------ parameters
     def _build_params(self) -> None:
@@ -278,7 +284,7 @@ class ElpasTask(BatchedTask):
         if memo is None or memo[0] is not self.params or memo[1] is not self.s["x"]:
             memo = self._args_memo = (self.params, self.s["x"], self._build_kernel_args())
         assert self._kernels is not None
-        return self._kernels[self.n >= PARALLEL_MIN_ROWS](a, *memo[2], out)
+        return self._kernels[self._parallel](a, *memo[2], out)
 
     def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
         """Python part after the compiled step (random draws in the numpy path's order; ``renew``: some row is

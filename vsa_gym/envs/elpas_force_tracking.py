@@ -271,7 +271,8 @@ class ElpasForceTrackingEnv(TaskEnv):
     ``{{"current": A, "force": N}}``), ``regen``, ``render_mode``, ``w_force``, ``w_energy``,
     ``force_scale``, ``force_range``, ``alpha_amplitude``, ``failure_penalty``, ``current_loop``
     (:class:`~vsa_gym.envs.elpas_common.ElpasCurrentLoop`), ``i_nominal``, ``i2t_trip_s``,
-    ``velocity_cutoff_hz``.
+    ``velocity_cutoff_hz``, ``parallel_rows`` (vector env: the compiled step's row loop on all cores from 64
+    rows; off by default, see docs/performance.md).
 
     ## Version history
     * v0: initial release.
