@@ -4,13 +4,38 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 
-from vsa_gym.envs.signals import SegmentReference
+from vsa_gym.envs.elpas_common import _actions_finite
+from vsa_gym.envs.signals import SegmentReference, _segment_value
 from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
-from vsa_gym.envs.vsaut2_common import K_FLOOR, N_COMMON_OBS, VsaUT2Task
+from vsa_gym.envs.vsaut2_common import (
+    C_DT,
+    ENERGY_INFO,
+    K_FLOOR,
+    K_KB,
+    K_RATE,
+    MARGIN_INFO,
+    N_COMMON_OBS,
+    OUT_CLIPPED,
+    OUT_FAIL,
+    OUT_NEW_SEGMENT,
+    OUT_REWARD,
+    STATUS_BAD_ACTION,
+    STATUS_BAD_STATE,
+    VsaUT2Task,
+    _clip_obs_row,
+    _common_obs_of,
+    _drive_all,
+    _energy_row,
+    _margins_into,
+    _true_stiffness_row,
+)
 from vsa_gym.vsaut2.model import STATE
+
+N_SEG = 7  # columns of one SegmentReference in s["seg"] (its keys, in SegmentReference._keys order)
 
 ENV_NAME = "VsaUT2-PositionStiffness-v0"
 
@@ -19,6 +44,8 @@ class PositionStiffnessTask(VsaUT2Task):
     """Batched logic of :class:`VsaUT2PositionStiffnessEnv` (its docstring documents everything)."""
 
     reward_terms = ("position", "stiffness", "energy", "failure")
+    step_info = (*ENERGY_INFO, *MARGIN_INFO, "position_error", "log_stiffness_error", "tau_ext")
+    n_signals = 3  # ref_r, ref_k, dist
     trace_names = ("r", "r_ref", "ln K", "ln K_ref", "i1", "i2", "tau_ext")
     trace_units = ("rad", "rad", "ln(N m/rad)", "ln(N m/rad)", "A", "A", "N m")
     trace_groups = ((0, 1, 6), (2, 3), (4, 5))
@@ -67,12 +94,22 @@ class PositionStiffnessTask(VsaUT2Task):
         self.ref_k = SegmentReference("ref_k", float(np.log(lo)), float(np.log(hi)), freq=(0.1, 1.0))
         self.dist = SegmentReference("dist", -abs(disturbance_max), abs(disturbance_max) + 1e-12,
                                      kinds=("step", "ramp"), zero_prob=0.5)
-        for sig in (self.ref_r, self.ref_k, self.dist):
-            sig.alloc(self.s, self.n)
-        self.s["r_ref"] = np.zeros(self.n)
-        self.s["k_ref"] = np.zeros(self.n)
-        self.s["tau"] = np.zeros(self.n)
+        # the signals' segment columns and the current reference values in one array each (the compiled step
+        # takes them as one argument); the named entries are views of their columns, written in place only
+        seg = np.zeros((self.n, 3 * N_SEG))
+        self.s["seg"] = seg
+        for j, sig in enumerate((self.ref_r, self.ref_k, self.dist)):
+            for k, key in enumerate(sig._keys):
+                self.s[key] = seg[:, N_SEG * j + k]
+        refs = np.zeros((self.n, 3))
+        self.s["refs"] = refs
+        self.s["r_ref"] = refs[:, 0]
+        self.s["k_ref"] = refs[:, 1]
+        self.s["tau"] = refs[:, 2]
         self.s["steps"] = np.zeros(self.n, dtype=np.int64)  # control steps taken in the episode
+        self._weights = np.array([self.w["position"], self.position_scale, self.w["stiffness"],
+                                  self.log_stiffness_scale, self.w["energy"], self.failure_penalty,
+                                  float(self.episode_steps)])
         self._set_channels(self._common_channels() + [
             ObsChannel("r_ref", "rad", -position_range, position_range, "output position reference"),
             ObsChannel("log_K_ref", "ln(N m/rad)", float(np.log(lo)), float(np.log(hi)),
@@ -100,6 +137,9 @@ class PositionStiffnessTask(VsaUT2Task):
         return (self.w["position"] * (e_r / self.position_scale) ** 2
                 + self.w["stiffness"] * (e_k / self.log_stiffness_scale) ** 2
                 + self.w["energy"] * p_max * self.control_dt)
+
+    def _failure_rates(self) -> np.ndarray:
+        return self.failure_rate()
 
     def _reset_rows(self, rows: np.ndarray) -> None:
         self._sample_params(rows)
@@ -129,20 +169,36 @@ class PositionStiffnessTask(VsaUT2Task):
         charged, info = self._energy_info(e_m)
         fail, margins = self._failures()
         self.s["steps"] += 1
-        remaining = np.maximum(self.episode_steps - self.s["steps"], 0)
+        failure = np.zeros(self.n)
+        if fail.any():  # the charge for the steps not taken (the rate is only computed when needed)
+            remaining = np.maximum(self.episode_steps - self.s["steps"], 0)
+            failure = np.where(fail, -(self.failure_penalty + self.failure_rate() * remaining), 0.0)
         terms = {
             "position": -self.w["position"] * (e_r / self.position_scale) ** 2,
             "stiffness": -self.w["stiffness"] * (e_k / self.log_stiffness_scale) ** 2,
             "energy": -self.w["energy"] * charged,
-            "failure": np.where(fail, -(self.failure_penalty + self.failure_rate() * remaining), 0.0),
+            "failure": failure,
         }
         info.update(margins)
         info.update({"position_error": e_r, "log_stiffness_error": e_k, "tau_ext": self.s["tau"].copy()})
         # references for the next step (what the next state is compared with)
-        self.s["r_ref"] = self.ref_r.advance(self.s, t_new, self.rngs)
-        self.s["k_ref"] = self.ref_k.advance(self.s, t_new, self.rngs)
-        self.s["tau"] = self.dist.advance(self.s, t_new, self.rngs)
+        self.s["r_ref"][:] = self.ref_r.advance(self.s, t_new, self.rngs)
+        self.s["k_ref"][:] = self.ref_k.advance(self.s, t_new, self.rngs)
+        self.s["tau"][:] = self.dist.advance(self.s, t_new, self.rngs)
         return terms, fail, info
+
+    def _build_kernel_args(self) -> tuple[Any, ...]:
+        s = self.s
+        return (s["x"], self.model._p_rows, self.model._d_rows, self._row_cols(), self._cfg, self._weights,
+                s["drive"], s["refs"], s["seg"], s["steps"], s["t"], self._obs_lo64, self._obs_hi64, s["obs"])
+
+    def _after_kernel(self, out: np.ndarray) -> None:
+        s = self.s
+        flags = out[self._n_info + OUT_NEW_SEGMENT:]
+        for j, sig in enumerate((self.ref_r, self.ref_k, self.dist)):  # the numpy path's order of draws
+            ended = np.flatnonzero(flags[j])
+            if ended.size:  # the compiled step put the ended segments' values at t_new into refs
+                sig.renew(s, ended, self.rngs, s["t"], s["refs"][:, j])
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         c = self._common_obs(rows)
@@ -159,6 +215,69 @@ class PositionStiffnessTask(VsaUT2Task):
         return np.stack([x[:, STATE["r"]], self.s["r_ref"][rows], np.log(K), self.s["k_ref"][rows],
                          x[:, STATE["i1"]], x[:, STATE["i2"]], self.s["tau"][rows]], axis=1)
 
+
+# ---------------------------------------------------------------------------- compiled task step
+@numba.njit(cache=True)
+def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: np.ndarray,
+                             cfg: np.ndarray, w: np.ndarray, drv: np.ndarray, refs: np.ndarray, seg: np.ndarray,
+                             steps: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray,
+                             out: np.ndarray) -> int:
+    """:meth:`PositionStiffnessTask._advance` + the rest of ``BatchedTask.step`` for every row in one call.
+
+    The drive and core step of all rows (:func:`~vsa_gym.envs.vsaut2_common._drive_all`), then per row: true
+    stiffness, errors, energy, margins, failure, reward terms into ``out[:, i]`` (``step_info``, the reward
+    terms, the ``OUT_*`` tail with one renewal flag per signal), the references and the disturbance at the new
+    time (:class:`SegmentReference`), the time and the noise-free clipped observation.  ``refs``: ``s["refs"]``
+    (r_ref, k_ref, tau); ``seg``: ``s["seg"]``; ``w = [w_position, position_scale, w_stiffness,
+    log_stiffness_scale, w_energy, failure_penalty, episode_steps]``.  Returns ``STATUS_BAD_ACTION`` or
+    ``STATUS_BAD_STATE`` (nothing changed), else the number of renewal flags set.
+    """
+    if not _actions_finite(a):
+        return STATUS_BAD_ACTION
+    n = x.shape[0]
+    tau = refs[:, 2].copy()  # the disturbance held over the step
+    e_m = np.empty((n, 2))
+    clipped = np.empty(n, dtype=np.bool_)
+    if not _drive_all(a, x, tau, np.ones(n, dtype=np.bool_), P, D, C, cfg, drv, e_m, clipped):
+        return STATUS_BAD_STATE
+    m = len(ENERGY_INFO) + len(MARGIN_INFO) + 3 + 4
+    o = np.empty(N_COMMON_OBS + 4)
+    flagged = 0
+    for i in range(n):
+        t_new = t[i] + cfg[C_DT]
+        logK = np.log(max(_true_stiffness_row(x, P, C[:, K_KB], i), K_FLOOR))
+        e_r = x[i, _R] - refs[i, 0]
+        e_k = logK - refs[i, 1]
+        charged = _energy_row(i, e_m, drv, cfg, out)
+        fail = _margins_into(x, drv, C, i, out, 6)
+        steps[i] += 1
+        remaining = max(int(w[6]) - steps[i], 0)
+        r_pos = -w[0] * (e_r / w[1]) ** 2
+        r_stf = -w[2] * (e_k / w[3]) ** 2
+        r_en = -w[4] * charged
+        r_fail = -(w[5] + C[i, K_RATE] * remaining) if fail else 0.0
+        out[10, i], out[11, i], out[12, i] = e_r, e_k, tau[i]
+        out[13, i], out[14, i], out[15, i], out[16, i] = r_pos, r_stf, r_en, r_fail
+        out[m + OUT_REWARD, i] = 0.0 + r_pos + r_stf + r_en + r_fail  # BatchedTask.step's sum, in term order
+        out[m + OUT_FAIL, i] = 1.0 if fail else 0.0
+        out[m + OUT_CLIPPED, i] = 1.0 if clipped[i] else 0.0
+        for j in range(3):
+            b = N_SEG * j
+            refs[i, j], ended = _segment_value(seg[:, b], seg[:, b + 1], seg[:, b + 2], seg[:, b + 3], seg[:, b + 4],
+                                               seg[:, b + 5], seg[:, b + 6], t_new, i)
+            out[m + OUT_NEW_SEGMENT + j, i] = 1.0 if ended else 0.0
+            flagged += ended
+        t[i] = t_new  # BatchedTask.step's time update
+        _common_obs_of(x, P, C, drv, i, o)
+        o[N_COMMON_OBS], o[N_COMMON_OBS + 1] = refs[i, 0], refs[i, 1]
+        o[N_COMMON_OBS + 2], o[N_COMMON_OBS + 3] = refs[i, 0] - o[2], refs[i, 1] - o[8]
+        _clip_obs_row(o, lo, hi, obs, i)
+    return flagged
+
+
+_R = STATE["r"]
+PositionStiffnessTask._kernel_owner = PositionStiffnessTask
+PositionStiffnessTask._kernel = (_position_stiffness_rows,)
 
 _OBS_DOC = indent(obs_table(PositionStiffnessTask(1).obs_channels))
 
