@@ -27,8 +27,9 @@ hidden state that neither a controller nor an agent could anticipate.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+import math
+from collections.abc import Callable, Mapping
+from typing import Any, ClassVar
 
 import numba
 import numpy as np
@@ -42,7 +43,20 @@ from vsa_gym.physics.dc_motor import current_control_voltage
 from vsa_gym.physics.lever import lever_ratio, spring_stiffness
 from vsa_gym.physics.pivot import pivot_position
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
-from vsa_gym.vsaut2.model import _P_ROW, INTEGRATORS, POWER, STATE, VsaUT2Model
+from vsa_gym.vsaut2.model import (
+    _P_ROW,
+    ETD_SUBSTEPS_PER_MS,
+    INTEGRATORS,
+    N_POWER,
+    PARALLEL_MIN_ROWS,
+    POWER,
+    STATE,
+    SUBSTEPS_PER_MS,
+    VsaUT2Model,
+    _all_finite,
+    _etd_compiled,
+    _rk4_compiled,
+)
 from vsa_gym.vsaut2.params import VsaUT2Params
 
 CURRENT_LOOP_DT = 1e-4  # s, 10 kHz current loop in current mode
@@ -56,8 +70,30 @@ register_jitable(series_stiffness)
 # the sensing updates of sensing.py, compiled for _sense_update (the same functions, not a copy)
 register_jitable(update_velocity)
 register_jitable(i2t_update)
+register_jitable(current_control_voltage)
 # state columns (STATE) as constants the compiled sensing can fold
 _I1, _TH1, _I2, _TH2, _Q2, _R = STATE["i1"], STATE["th1"], STATE["i2"], STATE["th2"], STATE["q2"], STATE["r"]
+_W1, _W2, _R_DOT = STATE["w1"], STATE["w2"], STATE["r_dot"]
+_EL1, _EL2 = POWER["el_pivot"], POWER["el_frame"]
+
+# entries of the drive configuration array ``VsaUT2Task._cfg`` read by the compiled step
+(C_DT, C_H, C_N_INNER, C_N_SUB, C_CURRENT_MODE, C_ETD, C_BANDWIDTH, C_I_NOM, C_V_GAIN, C_ENC,
+ C_REGEN_CLIP) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12)  # C_ENC: three entries (VsaUT2Task._enc)
+N_CFG = 13
+# columns of the per-row parameter matrix ``VsaUT2Task._row_cols()`` (from ``_cols`` and ``failure_rate``)
+(K_U1, K_U2, K_I1, K_I2, K_TH1_MAX, K_Q2_MAX, K_PHI_MAX, K_KB, K_RATIO, K_LIM1, K_LIM2, K_RATE) = range(12)
+N_K = 12
+# columns of the drive bookkeeping array ``s["drive"]`` (``s["i2t"]``, ``s["meas"]``, ... are views of them)
+D_I2T, D_MEAS, D_VEL, D_CUR, D_E_EL, D_E_CH = 0, 2, 5, 8, 10, 11
+N_DRIVE = 12
+# the info values every vsaUT-II task's compiled step writes first into ``out`` (``_energy_info``, ``_margins``)
+ENERGY_INFO = ("energy_el", "energy_el_pivot", "energy_el_frame", "energy_charged", "energy_el_total",
+               "energy_charged_total")
+MARGIN_INFO = ("margin_frame_stop", "margin_deflection_stop", "margin_i2t", "margin_pivot_stroke")
+# the last rows of a compiled step's ``out`` (after its info values and reward terms); then one flag row per
+# renewable signal of the task (``OUT_NEW_SEGMENT + k``)
+OUT_REWARD, OUT_FAIL, OUT_CLIPPED, OUT_NEW_SEGMENT = range(4)
+STATUS_BAD_ACTION, STATUS_BAD_STATE = -1, -2  # the compiled steps' return values besides a count of flagged rows
 
 
 class VsaUT2Task(BatchedTask):
@@ -82,6 +118,7 @@ class VsaUT2Task(BatchedTask):
         i2t_trip_s: float = 2.0,
         velocity_cutoff_hz: float = 50.0,
         integrator: str = "rk4",
+        parallel_rows: bool = False,
     ) -> None:
         super().__init__(n, control_dt=control_dt, control_mode=control_mode, sensor_noise=sensor_noise,
                          domain_randomization=domain_randomization, regen=regen)
@@ -115,12 +152,41 @@ class VsaUT2Task(BatchedTask):
             self.n_inner = 1
         n_ = self.n
         self.s["x"] = np.zeros((n_, self.model.n_states))
-        self.s["i2t"] = np.zeros((n_, 2))
-        self.s["meas"] = np.zeros((n_, 3))  # quantised th1, th2 (motor rad), r (rad) of the last sample
-        self.s["vel"] = np.zeros((n_, 3))  # filtered speed estimates of the same
-        self.s["cur"] = np.zeros((n_, 2))  # measured currents
-        self.s["e_el"] = np.zeros(n_)  # cumulative signed electrical energy (J)
-        self.s["e_charged"] = np.zeros(n_)  # cumulative energy counted by the energy term (J)
+        # the drive's per-row bookkeeping in one array (the compiled step takes it as one argument); the named
+        # entries are views of its columns, so they must be written in place, never rebound
+        drv = np.zeros((n_, N_DRIVE))
+        self.s["drive"] = drv
+        self.s["i2t"] = drv[:, D_I2T:D_I2T + 2]
+        self.s["meas"] = drv[:, D_MEAS:D_MEAS + 3]  # quantised th1, th2 (motor rad), r (rad) of the last sample
+        self.s["vel"] = drv[:, D_VEL:D_VEL + 3]  # filtered speed estimates of the same
+        self.s["cur"] = drv[:, D_CUR:D_CUR + 2]  # measured currents
+        self.s["e_el"] = drv[:, D_E_EL]  # cumulative signed electrical energy (J)
+        self.s["e_charged"] = drv[:, D_E_CH]  # cumulative energy counted by the energy term (J)
+        cfg = np.zeros(N_CFG)
+        cfg[C_DT], cfg[C_N_INNER] = self.control_dt, self.n_inner
+        cfg[C_H] = self.control_dt / self.n_inner
+        etd = integrator == "etd"
+        if control_mode == "current":  # VsaUT2Model._step_valid(x, u, tau, dt / n_inner, n_sub=1) per inner step
+            cfg[C_N_SUB] = 1
+        else:  # the sub-step count _step_valid derives from dt
+            cfg[C_N_SUB] = (max(1, math.ceil(self.control_dt / 1e-3 * ETD_SUBSTEPS_PER_MS - 1e-9)) if etd
+                            else max(1, math.ceil(self.control_dt / 1e-3 * SUBSTEPS_PER_MS)))
+        cfg[C_CURRENT_MODE], cfg[C_ETD] = control_mode == "current", etd
+        cfg[C_BANDWIDTH], cfg[C_I_NOM], cfg[C_V_GAIN] = self.current_bandwidth_hz, self.i_nominal, self.v_gain
+        cfg[C_ENC:C_ENC + 3] = self._enc
+        cfg[C_REGEN_CLIP] = self.regen == "clip"
+        #: drive configuration of the compiled step (``C_*`` entries)
+        self._cfg = cfg
+        #: any sensor noise? (then the compiled step's noise-free observation is recomputed after the draws)
+        self._noisy = self.noise["current"] != 0.0
+        self._args_memo: tuple[Any, np.ndarray, tuple[Any, ...]] | None = None
+        #: run the core's row loop on all cores (numba ``prange``) from ``PARALLEL_MIN_ROWS`` rows: then the
+        #: numpy-level step runs (VsaUT2Model's threaded kernel), not the compiled task step.  Off by default: on
+        #: this shared 2-core machine the threaded kernel cost more CPU time per step than it saved (n=1024: 23 vs
+        #: 14 ms of CPU time per core step at load 8-10, like the eLPAS envs in docs/performance.md)
+        self._parallel = bool(parallel_rows) and self.n >= PARALLEL_MIN_ROWS
+        self._info_names = (*self.step_info, *(f"reward_{k}" for k in self.reward_terms))
+        self._n_info = len(self._info_names)
 
     # ------------------------------------------------------------------ model and parameters
     def _build_model(self) -> None:
@@ -208,7 +274,7 @@ class VsaUT2Task(BatchedTask):
         x = self.s["x"]
         _sense_update(x, self.s["meas"], self.s["vel"], self.s["i2t"], self._enc, self.control_dt, self.v_gain,
                       self.i_nominal)
-        self.s["cur"] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
+        self.s["cur"][:] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
 
     def _common_obs(self, rows: np.ndarray) -> np.ndarray:
         """The ``N_COMMON_OBS`` common channels of ``rows`` (compiled: eq. 5 and eq. 6 on the quantised angles)."""
@@ -249,7 +315,7 @@ class VsaUT2Task(BatchedTask):
                     u = np.where(enabled[:, None], u, 0.0)
                 x, e = self.model._step_valid(x, u, tau_ext, dt, n_sub=1)
                 e_sum = e_sum + e
-        self.s["x"] = x
+        self.s["x"][:] = x  # in place: the compiled step's argument tuple keeps the array
         e_m = e_sum[:, [POWER["el_pivot"], POWER["el_frame"]]]
         self._update_sensors()  # also advances the I^2 t states (sensing.i2t_update)
         return e_m
@@ -276,6 +342,110 @@ class VsaUT2Task(BatchedTask):
             "energy_charged": charged, "energy_el_total": self.s["e_el"].copy(),
             "energy_charged_total": self.s["e_charged"].copy(),
         }
+
+    # ------------------------------------------------------------------ compiled step
+    #: the class whose ``_advance`` and ``_observe`` the compiled step implements (a subclass replacing either
+    #: runs the generic numpy-level step), the info keys in the order of the numpy path (those holding flags
+    #: in ``bool_info``), and the task's compiled step (row loop)
+    _kernel_owner: ClassVar[type | None] = None
+    step_info: ClassVar[tuple[str, ...]] = ()
+    bool_info: ClassVar[tuple[str, ...]] = ()
+    _kernel: ClassVar[tuple[Callable[..., int]] | None] = None  # in a tuple: not bound as a method
+    #: renewable signals of the task (their flags follow ``OUT_NEW_SEGMENT`` in ``out``)
+    n_signals: ClassVar[int] = 0
+
+    def _use_kernel(self) -> bool:
+        owner = self._kernel_owner
+        cls = type(self)
+        return (owner is not None and not self._parallel and cls._advance is owner._advance
+                and cls._observe is owner._observe)
+
+    def _failure_rates(self) -> np.ndarray:
+        """Per-row charge per remaining step of a failed episode (``K_RATE``; tasks that charge one override)."""
+        return np.zeros(self.n)
+
+    def _row_cols(self) -> np.ndarray:
+        """The per-row parameter columns of the compiled step, ``(n, N_K)`` (``K_*``; from :meth:`_cols`)."""
+        c = self._cols()
+        C = np.empty((self.n, N_K))
+        C[:, K_U1:K_U2 + 1], C[:, K_I1:K_I2 + 1] = c["U_max"], c["I_max"]
+        C[:, K_TH1_MAX], C[:, K_Q2_MAX], C[:, K_PHI_MAX] = c["th1_max"], c["q2_max"], c["phi_max"]
+        C[:, K_KB], C[:, K_RATIO], C[:, K_LIM1:K_LIM2 + 1] = c["K_b"], c["ratio"], c["i2t_lim"]
+        C[:, K_RATE] = self._failure_rates()
+        return C
+
+    def _build_kernel_args(self) -> tuple[Any, ...]:
+        """The arrays the task's compiled step takes between the actions and ``out``."""
+        raise NotImplementedError
+
+    def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
+        """Run the task's compiled step on the raw actions ``a`` ``(n, 2)``. Returns ``STATUS_BAD_ACTION``
+        (nothing changed), ``STATUS_BAD_STATE`` (nothing changed) or the number of flagged signal renewals.
+
+        The argument tuple is kept until the parameter set changes: the state arrays are only ever written
+        in place (reset, snapshot restore, the numpy-level and the compiled step).
+        """
+        memo = self._args_memo
+        if memo is None or memo[0] is not self.params or memo[1] is not self.s["x"]:
+            memo = self._args_memo = (self.params, self.s["x"], self._build_kernel_args())
+        assert self._kernel is not None
+        return self._kernel[0](a, *memo[2], out)
+
+    def _after_kernel(self, out: np.ndarray) -> None:
+        """Python part after the compiled step: renew the signal segments flagged in ``out`` (random draws in
+        the numpy path's order, after the current noise); ``s["t"]`` is already the new time."""
+
+    def _kernel_step(self, action: Any) -> np.ndarray:
+        """The compiled :meth:`BatchedTask.step` up to ``info``; returns ``out`` ``(n_out, n)`` (``step_info``,
+        ``reward_<term>``, then the ``OUT_*`` rows)."""
+        n = self.n
+        if isinstance(action, np.ndarray) and action.shape == (n, 2) and action.dtype.kind == "f":
+            a = action.astype(np.float64, copy=False)  # clipped and checked for finiteness in the compiled step
+        else:
+            a, _ = self.validate_action(action)
+        out = np.empty((self._n_info + OUT_NEW_SEGMENT + self.n_signals, n))
+        status = self._run_kernel(a, out)
+        if status == STATUS_BAD_ACTION:
+            self.validate_action(action)  # raises ValueError naming the component; nothing was changed
+        if status == STATUS_BAD_STATE:
+            raise FloatingPointError("vsaUT-II integration produced a non-finite state; reduce dt")
+        s = self.s
+        if self._noisy:  # _update_sensors' draws
+            s["cur"][:] = add_noise(s["x"][:, [_I1, _I2]], self.noise["current"], self.rngs, self._all_rows)
+        if status > 0:
+            self._after_kernel(out)
+        if status > 0 or self._noisy:  # the compiled step's observation lacks the noise or a renewed segment
+            s["obs"][:] = self._clip_obs(self._observe(self._all_rows))
+        if self.record_history:
+            self._record(self._all_rows)
+        return out
+
+    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """:meth:`BatchedTask.step` through the task's compiled step (drive, core, sensors, energy, margins,
+        reward terms, failures and observation of every row in one call); Python draws the noise and renews
+        the signals."""
+        if not self._use_kernel():
+            return super().step(action)
+        out = self._kernel_step(action)
+        m = self._n_info
+        info = dict(zip(self._info_names, out[:m], strict=True))
+        for k in self.bool_info:
+            info[k] = info[k] != 0.0
+        info["action_clipped"] = out[m + OUT_CLIPPED] != 0.0
+        info["time"] = self.s["t"].copy()
+        return self.s["obs"].copy(), out[m + OUT_REWARD], out[m + OUT_FAIL] != 0.0, info
+
+    def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
+        if not self._use_kernel() or self.n != 1:
+            return super().step_single(action)
+        vals = self._kernel_step(action).ravel().tolist()  # (n_out, 1): row 0
+        m = self._n_info
+        info: dict[str, Any] = dict(zip(self._info_names, vals, strict=False))  # the first m values
+        for k in self.bool_info:
+            info[k] = info[k] != 0.0
+        info["action_clipped"] = vals[m + OUT_CLIPPED] != 0.0
+        info["time"] = float(self.s["t"][0])
+        return self.s["obs"][0].copy(), vals[m + OUT_REWARD], vals[m + OUT_FAIL] != 0.0, info
 
     def _reset_common(self, rows: np.ndarray) -> None:
         self.s["i2t"][rows] = 0.0
@@ -348,18 +518,24 @@ def _common_obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, i2t: np
     """The common observation channels of ``rows``, ``(len(rows), N_COMMON_OBS)`` (see ``_common_channels``)."""
     out = np.empty((rows.shape[0], N_COMMON_OBS))
     for j in range(rows.shape[0]):
-        i = rows[j]
-        p = _P_ROW(P, i)
-        q1 = pivot_position(p.pivot, meas[i, 0] / p.pivot_gearbox.n)
-        q2 = meas[i, 1] / ratio[i]
-        K_s = spring_stiffness(p.lever, q1, meas[i, 2] - q2)
-        K = max(series_stiffness(K_s, K_b[i]), K_FLOOR) if K_s > 0 else K_FLOOR
-        out[j, 0], out[j, 1], out[j, 2] = q1, q2, meas[i, 2]
-        out[j, 3], out[j, 4], out[j, 5] = vel[i, 0], vel[i, 1], vel[i, 2]
-        out[j, 6], out[j, 7], out[j, 8] = cur[i, 0], cur[i, 1], np.log(K)
-        out[j, 9] = min(i2t[i, 0] / i2t_lim[i, 0], 1.0)
-        out[j, 10] = min(i2t[i, 1] / i2t_lim[i, 1], 1.0)
+        _common_obs_row(meas, vel, cur, i2t, i2t_lim, P, K_b, ratio, rows[j], out[j])
     return out
+
+
+@register_jitable
+def _common_obs_row(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, i2t: np.ndarray, i2t_lim: np.ndarray,
+                    P: np.ndarray, K_b: np.ndarray, ratio: np.ndarray, i: int, o: np.ndarray) -> None:
+    """Row ``i`` of :func:`_common_obs_rows` into ``o[:N_COMMON_OBS]``."""
+    p = _P_ROW(P, i)
+    q1 = pivot_position(p.pivot, meas[i, 0] / p.pivot_gearbox.n)
+    q2 = meas[i, 1] / ratio[i]
+    K_s = spring_stiffness(p.lever, q1, meas[i, 2] - q2)
+    K = max(series_stiffness(K_s, K_b[i]), K_FLOOR) if K_s > 0 else K_FLOOR
+    o[0], o[1], o[2] = q1, q2, meas[i, 2]
+    o[3], o[4], o[5] = vel[i, 0], vel[i, 1], vel[i, 2]
+    o[6], o[7], o[8] = cur[i, 0], cur[i, 1], np.log(K)
+    o[9] = min(i2t[i, 0] / i2t_lim[i, 0], 1.0)
+    o[10] = min(i2t[i, 1] / i2t_lim[i, 1], 1.0)
 
 
 @numba.njit(cache=True)
@@ -367,10 +543,16 @@ def _true_stiffness(x: np.ndarray, P: np.ndarray, K_b: np.ndarray) -> np.ndarray
     """``VsaUT2Model.stiffness(x)``: eq. (6) at the true pivot and deflection in series with the belt, ``(n,)``."""
     out = np.empty(x.shape[0])
     for i in range(x.shape[0]):
-        p = _P_ROW(P, i)
-        K_s = spring_stiffness(p.lever, pivot_position(p.pivot, x[i, _TH1] / p.pivot_gearbox.n), x[i, _R] - x[i, _Q2])
-        out[i] = series_stiffness(K_s, K_b[i])
+        out[i] = _true_stiffness_row(x, P, K_b, i)
     return out
+
+
+@register_jitable
+def _true_stiffness_row(x: np.ndarray, P: np.ndarray, K_b: np.ndarray, i: int) -> float:
+    """Row ``i`` of :func:`_true_stiffness`."""
+    p = _P_ROW(P, i)
+    K_s = spring_stiffness(p.lever, pivot_position(p.pivot, x[i, _TH1] / p.pivot_gearbox.n), x[i, _R] - x[i, _Q2])
+    return series_stiffness(K_s, K_b[i])
 
 
 @numba.njit(cache=True)
@@ -379,10 +561,114 @@ def _margin_rows(x: np.ndarray, i2t: np.ndarray, th1_max: np.ndarray, q2_max: np
     """Constraint margins of ``rows``, ``(len(rows), 4)``: frame stop, deflection stop, I^2 t, pivot stroke."""
     out = np.empty((rows.shape[0], 4))
     for j in range(rows.shape[0]):
-        i = rows[j]
-        q2, th1 = x[i, _Q2], x[i, _TH1]
-        out[j, 0] = q2_max[i] - abs(q2)
-        out[j, 1] = phi_max[i] - abs(x[i, _R] - q2)
-        out[j, 2] = min(1.0 - i2t[i, 0] / lim[i, 0], 1.0 - i2t[i, 1] / lim[i, 1])
-        out[j, 3] = min(th1, th1_max[i] - th1) / th1_max[i]
+        out[j, 0], out[j, 1], out[j, 2], out[j, 3] = _margin_row(x, i2t, th1_max, q2_max, phi_max, lim, rows[j])
     return out
+
+
+@register_jitable
+def _margin_row(x: np.ndarray, i2t: np.ndarray, th1_max: np.ndarray, q2_max: np.ndarray, phi_max: np.ndarray,
+                lim: np.ndarray, i: int) -> tuple[float, float, float, float]:
+    """Row ``i`` of :func:`_margin_rows`."""
+    q2, th1 = x[i, _Q2], x[i, _TH1]
+    return (q2_max[i] - abs(q2), phi_max[i] - abs(x[i, _R] - q2),
+            min(1.0 - i2t[i, 0] / lim[i, 0], 1.0 - i2t[i, 1] / lim[i, 1]), min(th1, th1_max[i] - th1) / th1_max[i])
+
+
+# ---------------------------------------------------------------------------- compiled task step parts
+# VsaUT2Task._physics + _update_sensors (without the noise draws), _energy_info and _margins / _failures, element
+# by element with the operations of the numpy path: the core's own compiled step (VsaUT2Model._step_valid's
+# kernels, called here on all rows at once), the current-mode amplifier law of physics.dc_motor, the sensing of
+# _sense_update; the tasks' compiled steps (vsaut2_position_stiffness, vsaut2_throw) add references and rewards.
+
+
+@register_jitable
+def _drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarray, P: np.ndarray, D: np.ndarray,
+               C: np.ndarray, cfg: np.ndarray, drv: np.ndarray, e_m: np.ndarray, clipped: np.ndarray) -> bool:
+    """:meth:`VsaUT2Task._physics` for every row on the raw (finite) actions ``a`` ``(n, 2)``.
+
+    Clips the actions (``clipped``: rows with a component outside ``[-1, 1]``), integrates the core (voltage
+    mode: ``u = a U_max``; current mode: the amplifier law every inner step), puts the per-motor electrical
+    energies into ``e_m`` ``(n, 2)``, then advances the I^2 t states, encoders and speed estimates and stores
+    the noise-free currents in ``drv``.  Returns ``False`` (nothing changed) if the core's state became
+    non-finite.
+    """
+    n = x.shape[0]
+    cmd = np.empty((n, 2))
+    for i in range(n):
+        clipped[i] = abs(a[i, 0]) > 1.0 or abs(a[i, 1]) > 1.0
+        for k in range(2):
+            cmd[i, k] = min(max(a[i, k], -1.0), 1.0)
+    current = cfg[C_CURRENT_MODE] != 0.0
+    etd = cfg[C_ETD] != 0.0
+    h, n_sub, bw = cfg[C_H], int(cfg[C_N_SUB]), cfg[C_BANDWIDTH]
+    xc = x.copy()
+    u = np.empty((n, 2))
+    e_sum = np.zeros((n, N_POWER))
+    for _ in range(int(cfg[C_N_INNER])):
+        for i in range(n):
+            if not enabled[i]:
+                u[i, 0], u[i, 1] = 0.0, 0.0
+            elif current:
+                p = _P_ROW(P, i)
+                u[i, 0] = current_control_voltage(p.pivot_motor, cmd[i, 0] * C[i, K_I1], xc[i, _I1], xc[i, _W1], bw)
+                u[i, 1] = current_control_voltage(p.frame_motor, cmd[i, 1] * C[i, K_I2], xc[i, _I2], xc[i, _W2], bw)
+            else:
+                u[i, 0], u[i, 1] = cmd[i, 0] * C[i, K_U1], cmd[i, 1] * C[i, K_U2]
+        # the core's serial kernels (a cached function calling the parallel ones crashes when loaded from the
+        # cache; parallel_rows runs the numpy-level step, whose core call is threaded from PARALLEL_MIN_ROWS rows)
+        if etd:
+            x_new, e = _etd_compiled(xc, u, tau, P, D, h, n_sub)
+        else:
+            x_new, e = _rk4_compiled(xc, u, tau, P, D, h, n_sub)
+        if not _all_finite(x_new):
+            return False
+        xc[:] = x_new
+        for i in range(n):
+            for j in range(e.shape[1]):
+                e_sum[i, j] = e_sum[i, j] + e[i, j]
+    x[:] = xc
+    for i in range(n):
+        e_m[i, 0], e_m[i, 1] = e_sum[i, _EL1], e_sum[i, _EL2]
+    _sense_update(x, drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_I2T:D_I2T + 2],
+                  cfg[C_ENC:C_ENC + 3], cfg[C_DT], cfg[C_V_GAIN], cfg[C_I_NOM])
+    for i in range(n):
+        drv[i, D_CUR], drv[i, D_CUR + 1] = x[i, _I1], x[i, _I2]  # the readings without noise
+    return True
+
+
+@register_jitable
+def _energy_row(i: int, e_m: np.ndarray, drv: np.ndarray, cfg: np.ndarray, out: np.ndarray) -> float:
+    """:meth:`VsaUT2Task._energy_info` for row ``i`` into ``out[:6, i]`` (``ENERGY_INFO``); returns the charged
+    energy."""
+    e0, e1 = e_m[i, 0], e_m[i, 1]
+    e = e0 + e1
+    charged = max(e0, 0.0) + max(e1, 0.0) if cfg[C_REGEN_CLIP] != 0.0 else e  # energy_cost_basis
+    drv[i, D_E_EL] += e
+    drv[i, D_E_CH] += charged
+    out[0, i], out[1, i], out[2, i], out[3, i] = e, e0, e1, charged
+    out[4, i], out[5, i] = drv[i, D_E_EL], drv[i, D_E_CH]
+    return charged
+
+
+@register_jitable
+def _margins_into(x: np.ndarray, drv: np.ndarray, C: np.ndarray, i: int, out: np.ndarray, k: int) -> bool:
+    """Row ``i``'s margins (``MARGIN_INFO``) into ``out[k:k + 4, i]``; returns the failure flag of
+    :meth:`VsaUT2Task._failures`."""
+    mg = _margin_row(x, drv[:, D_I2T:D_I2T + 2], C[:, K_TH1_MAX], C[:, K_Q2_MAX], C[:, K_PHI_MAX],
+                     C[:, K_LIM1:K_LIM2 + 1], i)
+    out[k, i], out[k + 1, i], out[k + 2, i], out[k + 3, i] = mg
+    return mg[0] <= 0 or mg[1] <= 0 or mg[2] <= 0
+
+
+@register_jitable
+def _common_obs_of(x: np.ndarray, P: np.ndarray, C: np.ndarray, drv: np.ndarray, i: int, o: np.ndarray) -> None:
+    """Row ``i``'s common observation channels (:meth:`VsaUT2Task._common_obs`) into ``o``."""
+    _common_obs_row(drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_CUR:D_CUR + 2],
+                    drv[:, D_I2T:D_I2T + 2], C[:, K_LIM1:K_LIM2 + 1], P, C[:, K_KB], C[:, K_RATIO], i, o)
+
+
+@register_jitable
+def _clip_obs_row(o: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, i: int) -> None:
+    """``BatchedTask._clip_obs`` of one row: clipped in float64, stored as float32 into ``obs[i]``."""
+    for k in range(o.shape[0]):
+        obs[i, k] = min(max(o[k], lo[k]), hi[k])

@@ -4,18 +4,42 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 
+from vsa_gym.envs.elpas_common import _actions_finite
 from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
-from vsa_gym.envs.vsaut2_common import K_FLOOR, VsaUT2Task
+from vsa_gym.envs.vsaut2_common import (
+    C_DT,
+    D_E_CH,
+    ENERGY_INFO,
+    K_FLOOR,
+    MARGIN_INFO,
+    N_COMMON_OBS,
+    OUT_CLIPPED,
+    OUT_FAIL,
+    OUT_REWARD,
+    STATUS_BAD_ACTION,
+    STATUS_BAD_STATE,
+    VsaUT2Task,
+    _clip_obs_row,
+    _common_obs_of,
+    _drive_all,
+    _energy_row,
+    _margins_into,
+)
 from vsa_gym.vsaut2.model import STATE
+
+_R, _R_DOT = STATE["r"], STATE["r_dot"]
 
 
 class ThrowTask(VsaUT2Task):
     """Batched logic of :class:`VsaUT2ThrowEnv` (its docstring documents everything)."""
 
     reward_terms = ("release", "failure")
+    step_info = (*ENERGY_INFO, *MARGIN_INFO, "released", "release_speed", "drive_enabled", "margin_energy")
+    bool_info = ("released", "drive_enabled")
     trace_names = ("r", "r_dot", "ln K", "E_left", "i1", "i2")
     trace_units = ("rad", "rad/s", "ln(N m/rad)", "J", "A", "A")
     trace_groups = ((0, 1), (2, 3), (4, 5))
@@ -46,6 +70,7 @@ class ThrowTask(VsaUT2Task):
             ObsChannel("energy_left", "J", 0.0, self.energy_budget, "energy budget not yet drawn"),
             ObsChannel("time_left", "s", 0.0, self.horizon_s, "time until the throw window closes"),
         ])
+        self._weights = np.array([self.release_angle, self.energy_budget, self.horizon_s, self.failure_penalty])
 
 
     def _reset_rows(self, rows: np.ndarray) -> None:
@@ -75,6 +100,11 @@ class ThrowTask(VsaUT2Task):
                      "drive_enabled": enabled, "margin_energy": self.energy_budget - self.s["e_charged"]})
         return terms, released | fail, info
 
+    def _build_kernel_args(self) -> tuple[Any, ...]:
+        s = self.s
+        return (s["x"], self.model._p_rows, self.model._d_rows, self._row_cols(), self._cfg, self._weights,
+                s["drive"], s["t"], self._obs_lo64, self._obs_hi64, s["obs"])
+
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         c = self._common_obs(rows)
         left = np.maximum(self.energy_budget - self.s["e_charged"][rows], 0.0)
@@ -94,6 +124,56 @@ class ThrowTask(VsaUT2Task):
         ax.plot([0, 1.35 * np.cos(a)], [0, 1.35 * np.sin(a)], color="tab:orange", lw=1, ls=":", label="release")
         ax.legend(fontsize=6, loc="upper left")
 
+
+# ---------------------------------------------------------------------------- compiled task step
+@numba.njit(cache=True)
+def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: np.ndarray, cfg: np.ndarray,
+                w: np.ndarray, drv: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray,
+                out: np.ndarray) -> int:
+    """:meth:`ThrowTask._advance` + the rest of ``BatchedTask.step`` for every row in one call.
+
+    The drive and core step of all rows (switched off where the budget is spent;
+    :func:`~vsa_gym.envs.vsaut2_common._drive_all`), then per row: energy, release, margins, failure and the
+    reward terms into ``out[:, i]`` (``step_info``, the reward terms, the ``OUT_*`` tail), the time and the
+    noise-free clipped observation.  ``w = [release_angle, energy_budget, horizon_s, failure_penalty]``.
+    Returns ``STATUS_BAD_ACTION`` or ``STATUS_BAD_STATE`` (nothing changed), else 0.
+    """
+    if not _actions_finite(a):
+        return STATUS_BAD_ACTION
+    n = x.shape[0]
+    r_before = x[:, _R].copy()
+    enabled = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        enabled[i] = drv[i, D_E_CH] < w[1]
+    e_m = np.empty((n, 2))
+    clipped = np.empty(n, dtype=np.bool_)
+    if not _drive_all(a, x, np.zeros(n), enabled, P, D, C, cfg, drv, e_m, clipped):
+        return STATUS_BAD_STATE
+    m = len(ENERGY_INFO) + len(MARGIN_INFO) + 4 + 2
+    o = np.empty(N_COMMON_OBS + 2)
+    for i in range(n):
+        _energy_row(i, e_m, drv, cfg, out)
+        r, r_dot = x[i, _R], x[i, _R_DOT]
+        released = r_before[i] < w[0] and r >= w[0]
+        fail = _margins_into(x, drv, C, i, out, 6) and not released
+        r_rel = max(r_dot, 0.0) if released else 0.0
+        r_fail = -w[3] if fail else 0.0
+        out[10, i], out[11, i] = 1.0 if released else 0.0, r_dot if released else 0.0
+        out[12, i], out[13, i] = 1.0 if enabled[i] else 0.0, w[1] - drv[i, D_E_CH]
+        out[14, i], out[15, i] = r_rel, r_fail
+        out[m + OUT_REWARD, i] = 0.0 + r_rel + r_fail  # BatchedTask.step's sum, in term order
+        out[m + OUT_FAIL, i] = 1.0 if released or fail else 0.0
+        out[m + OUT_CLIPPED, i] = 1.0 if clipped[i] else 0.0
+        t[i] = t[i] + cfg[C_DT]  # BatchedTask.step's time update
+        _common_obs_of(x, P, C, drv, i, o)
+        o[N_COMMON_OBS] = max(w[1] - drv[i, D_E_CH], 0.0)
+        o[N_COMMON_OBS + 1] = max(w[2] - t[i], 0.0)
+        _clip_obs_row(o, lo, hi, obs, i)
+    return 0
+
+
+ThrowTask._kernel_owner = ThrowTask
+ThrowTask._kernel = (_throw_rows,)
 
 _OBS_DOC = indent(obs_table(ThrowTask(1).obs_channels))
 
