@@ -41,7 +41,8 @@ REWARD_KWARGS: dict[str, frozenset[str]] = {
     "vsa_gym/ELPAS-QuarterCar-v0": frozenset({"w_comfort", "w_travel", "w_tyre", "w_energy", "accel_scale",
                                               "travel_soft", "failure_penalty", "regen"}),
     "vsa_gym/VsaUT2-PositionStiffness-v0": frozenset({"w_position", "w_stiffness", "w_energy", "position_scale",
-                                                      "log_stiffness_scale", "failure_penalty", "regen"}),
+                                                      "log_stiffness_scale", "failure_penalty", "failure_rate",
+                                                      "episode_steps", "regen"}),
     "vsa_gym/VsaUT2-Throw-v0": frozenset({"failure_penalty"}),
 }
 """Environment arguments that change only the reward (and ``energy_charged``, the energy term's basis),
