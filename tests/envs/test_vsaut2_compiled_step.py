@@ -101,3 +101,18 @@ def test_non_finite_action_changes_nothing_in_the_compiled_step() -> None:
         task.step(np.array([[0.5, 0.1], [np.nan, 0.0]]))
     for k, v in task.s.items():
         np.testing.assert_array_equal(v, before[k])
+
+
+def test_parallel_rows_runs_the_threaded_numpy_step_with_the_same_results() -> None:
+    fast, _ = _pair(PositionStiffnessTask, {}, 64)
+    threaded = PositionStiffnessTask(64, parallel_rows=True)
+    threaded.seed_rows(np.arange(64), [40 + i for i in range(64)])
+    threaded.reset()
+    assert fast._use_kernel() and not threaded._use_kernel()
+    assert not PositionStiffnessTask(3, parallel_rows=True)._parallel  # below PARALLEL_MIN_ROWS: compiled step
+    for k in range(5):
+        a = np.full((64, 2), 0.3 * np.sin(0.5 * k))
+        o1, r1, _, _ = fast.step(a)
+        o2, r2, _, _ = threaded.step(a)
+        np.testing.assert_allclose(o1, o2, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(r1, r2, rtol=1e-12, atol=1e-12)

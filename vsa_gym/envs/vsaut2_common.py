@@ -23,6 +23,13 @@ stop contact ``|phi| >= phi_max``, and an I^2 t over-current trip of either driv
 Each drive's I^2 t utilisation (heating state over its trip threshold, 1 = trip) is observed
 (``i2t_1``, ``i2t_2``), as servo drives report it (e.g. maxon EPOS): without it the trip is a
 hidden state that neither a controller nor an agent could anticipate.
+
+Step: one compiled call for all rows (the task's ``_*_rows``, built from :func:`_drive_all` -- the core's
+own compiled RK4/ETD step, the amplifier law, the sensing of :func:`_sense_update` -- and the row
+functions of the energy, margins and observation that the numpy-level methods use too); Python keeps the
+noise draws, the reference segment renewals and ``info``.  The numpy-level ``_advance`` stays the reference
+(tests/envs/test_vsaut2_compiled_step.py) and runs with ``parallel_rows=True`` (64 rows or more: the core's
+threaded kernel, which a cached compiled step cannot call).
 """
 
 from __future__ import annotations

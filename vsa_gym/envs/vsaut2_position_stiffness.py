@@ -353,8 +353,8 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
     render_mode=None, w_position=1.0, w_stiffness=1.0, w_energy=1.0, position_scale=0.2,
     log_stiffness_scale=1.0, failure_penalty=100.0, failure_rate=None, episode_steps=None,
     position_range=0.4, stiffness_range=(2, 300), disturbance_max=0.5, current_bandwidth_hz=1000.0,
-    i_nominal=4.0, i2t_trip_s=2.0,
-    velocity_cutoff_hz=50.0, integrator="rk4")``.  ``params`` is any (e.g. identified) :class:`VsaUT2Params`;
+    i_nominal=4.0, i2t_trip_s=2.0, velocity_cutoff_hz=50.0, integrator="rk4", parallel_rows=False)``.
+    ``params`` is any (e.g. identified) :class:`VsaUT2Params`;
     ``domain_randomization`` maps dotted parameter paths to ``(low, high)`` ranges resampled on
     reset (:mod:`vsa_gym.envs.randomization`); ``sensor_noise``: ``False`` / ``True`` / scale /
     ``{{"current": sigma_A}}``.  ``control_dt`` defaults to 2 ms: the fastest mechanical mode
@@ -362,7 +362,8 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
     electrical modes (0.1-0.3 ms) are resolved by the core's sub-steps at any rate.
     ``integrator`` (numerics, opt-in): ``"etd"`` integrates the motor currents' ``L/R`` poles
     exactly and takes 7 instead of 10 core sub-steps per ms (:class:`vsa_gym.vsaut2.model.VsaUT2Model`); both
-    stay within 1e-3 of the Radau reference.
+    stay within 1e-3 of the Radau reference.  ``parallel_rows`` (native vector env, 64 rows or more): the
+    core's row loop on all cores (:mod:`vsa_gym.envs.vsaut2_common`); same results.
 
     ## Version history
     * v0: initial release.
