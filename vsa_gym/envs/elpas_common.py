@@ -38,7 +38,7 @@ from vsa_gym.elpas.cone import spring_unchecked
 from vsa_gym.elpas.params import ElpasParams, NumericsParams
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
-from vsa_gym.envs.task import BatchedTask, ControlMode, ObsChannel, RegenPolicy
+from vsa_gym.envs.task import CompiledStepTask, ControlMode, ObsChannel, RegenPolicy
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 CURRENT_LOOP_DT = 1e-4  # s (10 kHz)
@@ -52,7 +52,7 @@ N_CFG = 16
 D_PI, D_I2T, D_MEAS, D_VEL, D_CUR, D_FORCE, D_E_EL, D_E_CH, D_P_LAST = 0, 1, 2, 4, 6, 7, 8, 9, 10
 N_DRIVE = 11
 # the last rows of a compiled step's ``out`` (after its info values and reward terms)
-OUT_REWARD, OUT_FAIL, OUT_CLIPPED, OUT_F, OUT_NEW_SEGMENT = range(5)
+OUT_F, OUT_NEW_SEGMENT = 3, 4  # after task.OUT_REWARD, OUT_FAIL, OUT_CLIPPED
 N_OUT_TAIL = 5
 STATUS_BAD_ACTION, STATUS_BAD_STATE = -1, -2  # the compiled steps' return values besides a count of flagged rows
 PARALLEL_MIN_ROWS = 64  # rows from which the compiled steps run their row loop on all cores
@@ -74,7 +74,7 @@ def stack_elpas(rows: list[ElpasParams], numerics: NumericsParams) -> ElpasParam
     return ElpasParams(**kw, numerics=numerics)
 
 
-class ElpasTask(BatchedTask):
+class ElpasTask(CompiledStepTask):
     """Shared eLPAS machinery; subclasses choose the configuration (rig or vehicle)."""
 
     action_names = ("motor command",)
@@ -314,28 +314,6 @@ class ElpasTask(BatchedTask):
         if self.record_history:
             self._record(self._all_rows)
         return out
-
-    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """:meth:`BatchedTask.step` through the task's compiled step (drive, core, sensors, energy, margins, reward
-        terms and failures of every row in one call); Python draws the noise and renews the signals."""
-        if not self._use_kernel():
-            return super().step(action)
-        out = self._kernel_step(action)
-        m = self._n_info
-        info = dict(zip(self._info_names, out[:m], strict=True))
-        info["action_clipped"] = out[m + OUT_CLIPPED] != 0.0
-        info["time"] = self.s["t"].copy()
-        return self.s["obs"].copy(), out[m + OUT_REWARD], out[m + OUT_FAIL] != 0.0, info
-
-    def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
-        if not self._use_kernel() or self.n != 1:
-            return super().step_single(action)
-        vals = self._kernel_step(action).ravel().tolist()  # (n_out, 1): row 0
-        m = self._n_info
-        info: dict[str, Any] = dict(zip(self._info_names, vals, strict=False))  # the first m values
-        info["action_clipped"] = vals[m + OUT_CLIPPED] != 0.0
-        info["time"] = float(self.s["t"][0])
-        return self.s["obs"][0].copy(), vals[m + OUT_REWARD], vals[m + OUT_FAIL] != 0.0, info
 
     def _energy_info(self, e_el: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         charged = self.energy_cost_basis(e_el[:, None])

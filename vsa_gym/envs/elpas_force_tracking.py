@@ -21,11 +21,8 @@ from vsa_gym.envs.elpas_common import (
     D_VEL,
     ENERGY_INFO,
     N_OUT_TAIL,
-    OUT_CLIPPED,
     OUT_F,
-    OUT_FAIL,
     OUT_NEW_SEGMENT,
-    OUT_REWARD,
     STATUS_BAD_ACTION,
     ElpasTask,
     _actions_finite,
@@ -38,7 +35,7 @@ from vsa_gym.envs.elpas_common import (
     _obs_rows,
 )
 from vsa_gym.envs.signals import Multisine, SegmentReference, _multisine_value, _segment_value
-from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import OUT_CLIPPED, OUT_FAIL, OUT_REWARD, ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
 
 

@@ -23,11 +23,8 @@ from vsa_gym.envs.elpas_common import (
     D_VEL,
     ENERGY_INFO,
     N_OUT_TAIL,
-    OUT_CLIPPED,
     OUT_F,
-    OUT_FAIL,
     OUT_NEW_SEGMENT,
-    OUT_REWARD,
     STATUS_BAD_ACTION,
     STATUS_BAD_STATE,
     ElpasTask,
@@ -41,7 +38,7 @@ from vsa_gym.envs.elpas_common import (
     _obs_rows,
 )
 from vsa_gym.envs.sensing import add_noise
-from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import OUT_CLIPPED, OUT_FAIL, OUT_REWARD, ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.vehicle.comfort import wk_sos
 from vsa_gym.vehicle.road import ROAD_CLASSES, road_signal

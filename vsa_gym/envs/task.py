@@ -302,6 +302,59 @@ class BatchedTask(ABC):
         ax.text(0.5, 0.5, type(self).__name__, ha="center", va="center", transform=ax.transAxes)
 
 
+OUT_REWARD, OUT_FAIL, OUT_CLIPPED = range(3)
+"""Rows of a compiled step's ``out`` after its ``m`` info rows (``out[m + OUT_*]``); a task's module may
+append rows of its own after these (:class:`CompiledStepTask`)."""
+
+
+class CompiledStepTask(BatchedTask):
+    """A task whose :meth:`step` runs as one compiled call for all rows (the eLPAS and vsaUT-II tasks).
+
+    Subclasses provide :meth:`_use_kernel` (False: the generic numpy-level :meth:`BatchedTask.step`, e.g.
+    for a subclass that replaces ``_advance``) and :meth:`_kernel_step`, which advances every row and
+    returns ``out`` ``(n_out, n)``: the ``m = len(_info_names)`` info values in the numpy path's key order,
+    then the ``OUT_*`` rows.  This class turns ``out`` into the batched or the single-row result.
+    """
+
+    #: info keys whose values are flags (returned as booleans)
+    bool_info: ClassVar[tuple[str, ...]] = ()
+    _n_info: int
+    _info_names: tuple[str, ...]
+
+    def _use_kernel(self) -> bool:
+        raise NotImplementedError
+
+    def _kernel_step(self, action: Any) -> np.ndarray:
+        raise NotImplementedError
+
+    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        """:meth:`BatchedTask.step` through the task's compiled step (drive, core, sensors, energy, margins,
+        reward terms, failures and observation of every row in one call); Python draws the noise and renews
+        the signals."""
+        if not self._use_kernel():
+            return super().step(action)
+        out = self._kernel_step(action)
+        m = self._n_info
+        info = dict(zip(self._info_names, out[:m], strict=True))
+        for k in self.bool_info:
+            info[k] = info[k] != 0.0
+        info["action_clipped"] = out[m + OUT_CLIPPED] != 0.0
+        info["time"] = self.s["t"].copy()
+        return self.s["obs"].copy(), out[m + OUT_REWARD], out[m + OUT_FAIL] != 0.0, info
+
+    def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
+        if not self._use_kernel() or self.n != 1:
+            return super().step_single(action)
+        vals = self._kernel_step(action).ravel().tolist()  # (n_out, 1): row 0
+        m = self._n_info
+        info: dict[str, Any] = dict(zip(self._info_names, vals, strict=False))  # the first m values
+        for k in self.bool_info:
+            info[k] = info[k] != 0.0
+        info["action_clipped"] = vals[m + OUT_CLIPPED] != 0.0
+        info["time"] = float(self.s["t"][0])
+        return self.s["obs"][0].copy(), vals[m + OUT_REWARD], vals[m + OUT_FAIL] != 0.0, info
+
+
 class TaskEnv(gym.Env[np.ndarray, np.ndarray]):
     """A single Gymnasium environment over a :class:`BatchedTask` with ``n = 1``.
 

@@ -44,7 +44,7 @@ from numba.extending import register_jitable
 
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
-from vsa_gym.envs.task import BatchedTask, ControlMode, ObsChannel, RegenPolicy
+from vsa_gym.envs.task import CompiledStepTask, ControlMode, ObsChannel, RegenPolicy
 from vsa_gym.physics.belt import belt_stiffness_at_frame, series_stiffness
 from vsa_gym.physics.dc_motor import current_control_voltage
 from vsa_gym.physics.lever import lever_ratio, spring_stiffness
@@ -99,11 +99,11 @@ ENERGY_INFO = ("energy_el", "energy_el_pivot", "energy_el_frame", "energy_charge
 MARGIN_INFO = ("margin_frame_stop", "margin_deflection_stop", "margin_i2t", "margin_pivot_stroke")
 # the last rows of a compiled step's ``out`` (after its info values and reward terms); then one flag row per
 # renewable signal of the task (``OUT_NEW_SEGMENT + k``)
-OUT_REWARD, OUT_FAIL, OUT_CLIPPED, OUT_NEW_SEGMENT = range(4)
+OUT_NEW_SEGMENT = 3  # after task.OUT_REWARD, OUT_FAIL, OUT_CLIPPED
 STATUS_BAD_ACTION, STATUS_BAD_STATE = -1, -2  # the compiled steps' return values besides a count of flagged rows
 
 
-class VsaUT2Task(BatchedTask):
+class VsaUT2Task(CompiledStepTask):
     """Shared vsaUT-II machinery; subclasses add references, reward and extra observations."""
 
     action_names = ("pivot motor command", "frame motor command")
@@ -363,7 +363,6 @@ class VsaUT2Task(BatchedTask):
     #: in ``bool_info``), and the task's compiled step (row loop)
     _kernel_owner: ClassVar[type | None] = None
     step_info: ClassVar[tuple[str, ...]] = ()
-    bool_info: ClassVar[tuple[str, ...]] = ()
     _kernel: ClassVar[tuple[Callable[..., int]] | None] = None  # in a tuple: not bound as a method
     #: renewable signals of the task (their flags follow ``OUT_NEW_SEGMENT`` in ``out``)
     n_signals: ClassVar[int] = 0
@@ -433,33 +432,6 @@ class VsaUT2Task(BatchedTask):
         if self.record_history:
             self._record(self._all_rows)
         return out
-
-    def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """:meth:`BatchedTask.step` through the task's compiled step (drive, core, sensors, energy, margins,
-        reward terms, failures and observation of every row in one call); Python draws the noise and renews
-        the signals."""
-        if not self._use_kernel():
-            return super().step(action)
-        out = self._kernel_step(action)
-        m = self._n_info
-        info = dict(zip(self._info_names, out[:m], strict=True))
-        for k in self.bool_info:
-            info[k] = info[k] != 0.0
-        info["action_clipped"] = out[m + OUT_CLIPPED] != 0.0
-        info["time"] = self.s["t"].copy()
-        return self.s["obs"].copy(), out[m + OUT_REWARD], out[m + OUT_FAIL] != 0.0, info
-
-    def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
-        if not self._use_kernel() or self.n != 1:
-            return super().step_single(action)
-        vals = self._kernel_step(action).ravel().tolist()  # (n_out, 1): row 0
-        m = self._n_info
-        info: dict[str, Any] = dict(zip(self._info_names, vals, strict=False))  # the first m values
-        for k in self.bool_info:
-            info[k] = info[k] != 0.0
-        info["action_clipped"] = vals[m + OUT_CLIPPED] != 0.0
-        info["time"] = float(self.s["t"][0])
-        return self.s["obs"][0].copy(), vals[m + OUT_REWARD], vals[m + OUT_FAIL] != 0.0, info
 
     def _reset_common(self, rows: np.ndarray) -> None:
         self.s["i2t"][rows] = 0.0

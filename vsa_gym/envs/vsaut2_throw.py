@@ -8,7 +8,7 @@ import numba
 import numpy as np
 
 from vsa_gym.envs.elpas_common import _actions_finite
-from vsa_gym.envs.task import ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import OUT_CLIPPED, OUT_FAIL, OUT_REWARD, ObsChannel, TaskEnv, indent, obs_table
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.envs.vsaut2_common import (
     C_DT,
@@ -17,9 +17,6 @@ from vsa_gym.envs.vsaut2_common import (
     K_FLOOR,
     MARGIN_INFO,
     N_COMMON_OBS,
-    OUT_CLIPPED,
-    OUT_FAIL,
-    OUT_REWARD,
     STATUS_BAD_ACTION,
     STATUS_BAD_STATE,
     VsaUT2Task,
