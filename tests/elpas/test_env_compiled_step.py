@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from tests.compiled_step import twin_tasks
 from vsa_gym.envs.elpas_force_tracking import ForceTrackingTask
 from vsa_gym.envs.elpas_quarter_car import QuarterCarTask
 from vsa_gym.envs.task import BatchedTask
@@ -29,19 +30,9 @@ CASES = [
 ]
 
 
-def _pair(cls: type, kw: dict[str, Any], n: int) -> tuple[BatchedTask, BatchedTask]:
-    tasks = []
-    for _ in range(2):
-        task = cls(n, **kw)
-        task.seed_rows(np.arange(n), [40 + i for i in range(n)])
-        task.reset()
-        tasks.append(task)
-    return tasks[0], tasks[1]
-
-
 @pytest.mark.parametrize(("cls", "kw", "n"), CASES)
 def test_compiled_step_equals_numpy_step(cls: type, kw: dict[str, Any], n: int) -> None:
-    fast, slow = _pair(cls, kw, n)
+    fast, slow = twin_tasks(cls, kw, n)
     rng = np.random.default_rng(3)
     steps, amp = (1600, 0.1) if cls is ForceTrackingTask else (80, 1.0)  # force reference segments: 0.3-1.5 s
     renewed = False

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from tests.compiled_step import twin_tasks
 from vsa_gym.envs.task import BatchedTask
 from vsa_gym.envs.vsaut2_position_stiffness import PositionStiffnessTask
 from vsa_gym.envs.vsaut2_throw import ThrowTask
@@ -30,19 +31,9 @@ CASES = [
 ]
 
 
-def _pair(cls: type, kw: dict[str, Any], n: int) -> tuple[BatchedTask, BatchedTask]:
-    tasks = []
-    for _ in range(2):
-        task = cls(n, **kw)
-        task.seed_rows(np.arange(n), [40 + i for i in range(n)])
-        task.reset()
-        tasks.append(task)
-    return tasks[0], tasks[1]
-
-
 @pytest.mark.parametrize(("cls", "kw", "n"), CASES)
 def test_compiled_step_equals_numpy_step(cls: type, kw: dict[str, Any], n: int) -> None:
-    fast, slow = _pair(cls, kw, n)
+    fast, slow = twin_tasks(cls, kw, n)
     assert fast._use_kernel()
     rng = np.random.default_rng(3)
     steps = 900 if n < 10 else 120
@@ -80,7 +71,7 @@ def test_compiled_step_equals_numpy_step(cls: type, kw: dict[str, Any], n: int) 
 
 @pytest.mark.parametrize("cls", [PositionStiffnessTask, ThrowTask])
 def test_single_row_info_equals_the_batched_step(cls: type) -> None:
-    fast, slow = _pair(cls, {}, 1)
+    fast, slow = twin_tasks(cls, {}, 1)
     for k in range(40):
         a = np.array([[np.sin(0.1 * k), 1.3 * np.cos(0.05 * k)]], dtype=np.float32)
         o1, r1, t1, i1 = fast.step_single(a)
@@ -104,7 +95,7 @@ def test_non_finite_action_changes_nothing_in_the_compiled_step() -> None:
 
 
 def test_parallel_rows_runs_the_threaded_numpy_step_with_the_same_results() -> None:
-    fast, _ = _pair(PositionStiffnessTask, {}, 64)
+    fast, _ = twin_tasks(PositionStiffnessTask, {}, 64)
     threaded = PositionStiffnessTask(64, parallel_rows=True)
     threaded.seed_rows(np.arange(64), [40 + i for i in range(64)])
     threaded.reset()
