@@ -38,7 +38,14 @@ from vsa_gym.elpas.cone import spring_unchecked
 from vsa_gym.elpas.params import ElpasParams, NumericsParams
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
-from vsa_gym.envs.task import CompiledStepTask, ControlMode, ObsChannel, RegenPolicy
+from vsa_gym.envs.task import (
+    STATUS_BAD_ACTION,
+    STATUS_BAD_STATE,
+    CompiledStepTask,
+    ControlMode,
+    ObsChannel,
+    RegenPolicy,
+)
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 CURRENT_LOOP_DT = 1e-4  # s (10 kHz)
@@ -54,7 +61,6 @@ N_DRIVE = 11
 # the last rows of a compiled step's ``out`` (after its info values and reward terms)
 OUT_F, OUT_NEW_SEGMENT = 3, 4  # after task.OUT_REWARD, OUT_FAIL, OUT_CLIPPED
 N_OUT_TAIL = 5
-STATUS_BAD_ACTION, STATUS_BAD_STATE = -1, -2  # the compiled steps' return values besides a count of flagged rows
 PARALLEL_MIN_ROWS = 64  # rows from which the compiled steps run their row loop on all cores
 
 
@@ -153,13 +159,11 @@ class ElpasTask(CompiledStepTask):
         cfg[C_REGEN_CLIP], cfg[C_VEHICLE] = self.regen == "clip", self.vehicle
         #: drive configuration of the compiled step (``C_*`` entries)
         self._cfg = cfg
-        self._info_names = (*self.step_info, *(f"reward_{k}" for k in self.reward_terms))
-        self._n_info = len(self._info_names)
+        self._init_compiled_step()
         #: any sensor noise? (then the compiled step's noise-free observation is recomputed after the draws)
         self._noisy = any(v != 0.0 for v in self.noise.values())
         self._analog_noisy = bool(self.noise["current"] or self.noise["force"])
         self._P_memo: tuple[Any, np.ndarray] | None = None
-        self._args_memo: tuple[Any, np.ndarray, tuple[Any, ...]] | None = None
         #: run the compiled step's row loop on all cores (numba ``prange``) from ``PARALLEL_MIN_ROWS`` rows.
         #: Off by default: on this shared 2-core machine the OpenMP workers' waiting cost far more than the
         #: second core gave (vector ELPAS-ForceTracking-v0, load average 9-11: n=64 4.3k instead of 51k
@@ -257,11 +261,6 @@ class ElpasTask(CompiledStepTask):
             raise ValueError("step_vehicle: the state became non-finite (check inputs and parameters)")
 
     # ------------------------------------------------------------------ compiled step
-    #: the class whose ``_advance`` the compiled step implements (a subclass replacing ``_advance`` runs the
-    #: generic numpy-level step), the info keys in the order of the numpy path, and the columns of ``out``
-    _kernel_owner: ClassVar[type | None] = None
-    step_info: ClassVar[tuple[str, ...]] = ()
-
     def _use_kernel(self) -> bool:
         owner = self._kernel_owner
         return owner is not None and type(self)._advance is owner._advance
@@ -269,22 +268,11 @@ class ElpasTask(CompiledStepTask):
     #: the task's compiled steps: (row loop, row loop over all cores)
     _kernels: ClassVar[tuple[Callable[..., int], Callable[..., int]] | None] = None
 
-    def _build_kernel_args(self) -> tuple[Any, ...]:
-        """The arrays the task's compiled step takes between the actions and ``out``."""
-        raise NotImplementedError
-
     def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
         """Run the task's compiled step on the raw actions ``a`` ``(n, 1)``. Returns ``STATUS_BAD_ACTION``
-        (nothing changed), ``STATUS_BAD_STATE`` or the number of rows flagged in ``out[OUT_NEW_SEGMENT]``.
-
-        The argument tuple is kept until the parameter set changes: the state arrays are only ever written
-        in place (reset, snapshot restore, the compiled step).
-        """
-        memo = self._args_memo
-        if memo is None or memo[0] is not self.params or memo[1] is not self.s["x"]:
-            memo = self._args_memo = (self.params, self.s["x"], self._build_kernel_args())
+        (nothing changed), ``STATUS_BAD_STATE`` or the number of rows flagged in ``out[OUT_NEW_SEGMENT]``."""
         assert self._kernels is not None
-        return self._kernels[self._parallel](a, *memo[2], out)
+        return self._kernels[self._parallel](a, *self._kernel_args(), out)
 
     def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
         """Python part after the compiled step (random draws in the numpy path's order; ``renew``: some row is

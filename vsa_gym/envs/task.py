@@ -305,6 +305,9 @@ class BatchedTask(ABC):
 OUT_REWARD, OUT_FAIL, OUT_CLIPPED = range(3)
 """Rows of a compiled step's ``out`` after its ``m`` info rows (``out[m + OUT_*]``); a task's module may
 append rows of its own after these (:class:`CompiledStepTask`)."""
+STATUS_BAD_ACTION, STATUS_BAD_STATE = -1, -2
+"""Return values of a compiled step besides a count of flagged rows: a non-finite action (nothing changed) or
+a non-finite new state."""
 
 
 class CompiledStepTask(BatchedTask):
@@ -316,10 +319,33 @@ class CompiledStepTask(BatchedTask):
     then the ``OUT_*`` rows.  This class turns ``out`` into the batched or the single-row result.
     """
 
+    #: the class whose ``_advance`` the compiled step implements (a subclass replacing it runs the generic
+    #: numpy-level step) and the info keys in the order of the numpy path
+    _kernel_owner: ClassVar[type | None] = None
+    step_info: ClassVar[tuple[str, ...]] = ()
     #: info keys whose values are flags (returned as booleans)
     bool_info: ClassVar[tuple[str, ...]] = ()
     _n_info: int
     _info_names: tuple[str, ...]
+    _args_memo: tuple[Any, np.ndarray, tuple[Any, ...]] | None = None
+
+    def _init_compiled_step(self) -> None:
+        """Set the names of ``out``'s info rows (call at the end of ``__init__``)."""
+        self._info_names = (*self.step_info, *(f"reward_{k}" for k in self.reward_terms))
+        self._n_info = len(self._info_names)
+        self._args_memo = None
+
+    def _build_kernel_args(self) -> tuple[Any, ...]:
+        """The arrays the task's compiled step takes between the actions and ``out``."""
+        raise NotImplementedError
+
+    def _kernel_args(self) -> tuple[Any, ...]:
+        """:meth:`_build_kernel_args`, kept until the parameter set or the state array changes (the state arrays
+        are only ever written in place: reset, snapshot restore, the numpy-level and the compiled step)."""
+        memo = self._args_memo
+        if memo is None or memo[0] is not self.params or memo[1] is not self.s["x"]:
+            memo = self._args_memo = (self.params, self.s["x"], self._build_kernel_args())
+        return memo[2]
 
     def _use_kernel(self) -> bool:
         raise NotImplementedError

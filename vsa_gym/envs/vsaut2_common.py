@@ -44,7 +44,14 @@ from numba.extending import register_jitable
 
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
-from vsa_gym.envs.task import CompiledStepTask, ControlMode, ObsChannel, RegenPolicy
+from vsa_gym.envs.task import (
+    STATUS_BAD_ACTION,
+    STATUS_BAD_STATE,
+    CompiledStepTask,
+    ControlMode,
+    ObsChannel,
+    RegenPolicy,
+)
 from vsa_gym.physics.belt import belt_stiffness_at_frame, series_stiffness
 from vsa_gym.physics.dc_motor import current_control_voltage
 from vsa_gym.physics.lever import lever_ratio, spring_stiffness
@@ -100,7 +107,6 @@ MARGIN_INFO = ("margin_frame_stop", "margin_deflection_stop", "margin_i2t", "mar
 # the last rows of a compiled step's ``out`` (after its info values and reward terms); then one flag row per
 # renewable signal of the task (``OUT_NEW_SEGMENT + k``)
 OUT_NEW_SEGMENT = 3  # after task.OUT_REWARD, OUT_FAIL, OUT_CLIPPED
-STATUS_BAD_ACTION, STATUS_BAD_STATE = -1, -2  # the compiled steps' return values besides a count of flagged rows
 
 
 class VsaUT2Task(CompiledStepTask):
@@ -186,14 +192,12 @@ class VsaUT2Task(CompiledStepTask):
         self._cfg = cfg
         #: any sensor noise? (then the compiled step's noise-free observation is recomputed after the draws)
         self._noisy = self.noise["current"] != 0.0
-        self._args_memo: tuple[Any, np.ndarray, tuple[Any, ...]] | None = None
         #: run the core's row loop on all cores (numba ``prange``) from ``PARALLEL_MIN_ROWS`` rows: then the
         #: numpy-level step runs (VsaUT2Model's threaded kernel), not the compiled task step.  Off by default: on
         #: this shared 2-core machine the threaded kernel cost more CPU time per step than it saved (n=1024: 23 vs
         #: 14 ms of CPU time per core step at load 8-10, like the eLPAS envs in docs/performance.md)
         self._parallel = bool(parallel_rows) and self.n >= PARALLEL_MIN_ROWS
-        self._info_names = (*self.step_info, *(f"reward_{k}" for k in self.reward_terms))
-        self._n_info = len(self._info_names)
+        self._init_compiled_step()
 
     # ------------------------------------------------------------------ model and parameters
     def _build_model(self) -> None:
@@ -358,11 +362,8 @@ class VsaUT2Task(CompiledStepTask):
         }
 
     # ------------------------------------------------------------------ compiled step
-    #: the class whose ``_advance`` and ``_observe`` the compiled step implements (a subclass replacing either
-    #: runs the generic numpy-level step), the info keys in the order of the numpy path (those holding flags
-    #: in ``bool_info``), and the task's compiled step (row loop)
-    _kernel_owner: ClassVar[type | None] = None
-    step_info: ClassVar[tuple[str, ...]] = ()
+    #: the task's compiled step (row loop); ``_kernel_owner`` also implements ``_observe`` here (a subclass
+    #: replacing it runs the generic numpy-level step)
     _kernel: ClassVar[tuple[Callable[..., int]] | None] = None  # in a tuple: not bound as a method
     #: renewable signals of the task (their flags follow ``OUT_NEW_SEGMENT`` in ``out``)
     n_signals: ClassVar[int] = 0
@@ -387,22 +388,11 @@ class VsaUT2Task(CompiledStepTask):
         C[:, K_RATE] = self._failure_rates()
         return C
 
-    def _build_kernel_args(self) -> tuple[Any, ...]:
-        """The arrays the task's compiled step takes between the actions and ``out``."""
-        raise NotImplementedError
-
     def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
         """Run the task's compiled step on the raw actions ``a`` ``(n, 2)``. Returns ``STATUS_BAD_ACTION``
-        (nothing changed), ``STATUS_BAD_STATE`` (nothing changed) or the number of flagged signal renewals.
-
-        The argument tuple is kept until the parameter set changes: the state arrays are only ever written
-        in place (reset, snapshot restore, the numpy-level and the compiled step).
-        """
-        memo = self._args_memo
-        if memo is None or memo[0] is not self.params or memo[1] is not self.s["x"]:
-            memo = self._args_memo = (self.params, self.s["x"], self._build_kernel_args())
+        (nothing changed), ``STATUS_BAD_STATE`` (nothing changed) or the number of flagged signal renewals."""
         assert self._kernel is not None
-        return self._kernel[0](a, *memo[2], out)
+        return self._kernel[0](a, *self._kernel_args(), out)
 
     def _after_kernel(self, out: np.ndarray) -> None:
         """Python part after the compiled step: renew the signal segments flagged in ``out`` (random draws in
