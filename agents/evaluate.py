@@ -35,6 +35,8 @@ import numpy as np
 import yaml
 
 from agents.common import METRIC_SEED_BASE, algo_class, algo_of_model, env_name, vecnormalize_for, write_json
+from agents.features import FEATURE_CLASS, feature_config, feature_policy
+from agents.residual import RESIDUAL_CLASS, residual_config, residual_policy
 
 REWARD_KWARGS: dict[str, frozenset[str]] = {
     "vsa_gym/ELPAS-ForceTracking-v0": frozenset({"w_force", "w_energy", "force_scale", "failure_penalty", "regen"}),
@@ -131,6 +133,24 @@ def training_vec_env_wrapper(model_path: str | os.PathLike[str], env_id: str) ->
     return None
 
 
+def wrapped_policy(agent: Any, vec_env_wrapper: Any) -> Any:
+    """``policy_factory(env)`` that feeds ``agent`` what it saw in training: the ``vec_env_wrapper`` entries of
+    its run (residual baseline, observation features) rebuilt as policies, innermost wrapper outermost."""
+    factory: Any = lambda env: agent  # noqa: E731
+    items = [] if vec_env_wrapper is None else (vec_env_wrapper if isinstance(vec_env_wrapper, list)
+                                                else [vec_env_wrapper])
+    for it in reversed(items):
+        path, kw = next(iter(it.items())) if isinstance(it, Mapping) else (it, {})
+        kw = dict(kw or {})
+        if path == RESIDUAL_CLASS:
+            factory = residual_policy(None, kw, agent_factory=factory)
+        elif path == FEATURE_CLASS:
+            factory = feature_policy(factory, kw)
+        else:
+            raise ValueError(f"agents.evaluate cannot rebuild the vec_env_wrapper {path!r} as a policy")
+    return factory
+
+
 def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: int = 10,
                    seed_base: int = METRIC_SEED_BASE, algo: str | None = None,
                    vecnormalize: str | os.PathLike[str] | None = None, episode_steps: int | None = None,
@@ -142,7 +162,6 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     drops the reward-only training arguments (module docstring), ``"training"`` keeps them;
     ``env_kwargs`` given here apply last in both cases.
     """
-    from agents.residual import residual_config, residual_policy
     from baselines.metrics import evaluate_policy
 
     policy = load_agent(model_path, algo, vecnormalize)
@@ -155,13 +174,15 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     kw.update(env_kwargs or {})
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
     seeds = [seed_base + k for k in range(int(episodes))]
-    residual = residual_config(training_vec_env_wrapper(model_path, env_id))
-    factory = residual_policy(policy, residual) if residual is not None else (lambda env: policy)
+    wrappers = training_vec_env_wrapper(model_path, env_id)
+    factory = wrapped_policy(policy, wrappers)
+    residual = residual_config(wrappers)
     result = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
     result = dict(result)
     result["agent"] = {"model": str(model_path), "algo": algo or algo_of_model(model_path),
                        "vecnormalize": str(vecnormalize or vecnormalize_for(model_path)), "seeds": seeds,
-                       "env_kwargs": kw, "residual": residual, "reward": reward,
+                       "env_kwargs": kw, "residual": residual, "features": feature_config(wrappers),
+                       "reward": reward,
                        "training_reward_kwargs": dropped}
     return result
 

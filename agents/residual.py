@@ -177,6 +177,8 @@ class ResidualPolicy:
     def reset(self) -> None:
         if hasattr(self.baseline, "reset"):
             self.baseline.reset()
+        if hasattr(self.agent, "reset"):  # an agent behind a stateful filter (agents.features)
+            self.agent.reset()
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
@@ -186,14 +188,23 @@ class ResidualPolicy:
         return out[0] if np.ndim(obs) == 1 else out
 
 
-def residual_policy(agent: Callable[[np.ndarray], np.ndarray], config: Mapping[str, Any]) -> Callable[[Any], Any]:
-    """``policy_factory(env)`` of a trained residual agent (``config``: the wrapper's kwargs of the run)."""
+def residual_policy(agent: Callable[[np.ndarray], np.ndarray] | None, config: Mapping[str, Any],
+                    agent_factory: Callable[[Any], Callable[[np.ndarray], np.ndarray]] | None = None
+                    ) -> Callable[[Any], Any]:
+    """``policy_factory(env)`` of a trained residual agent (``config``: the wrapper's kwargs of the run).
+
+    ``agent``: the trained policy; or ``agent_factory(env)`` builds it per environment (an agent behind
+    further wrappers, e.g. :func:`agents.features.feature_policy`).
+    """
+    if (agent is None) == (agent_factory is None):
+        raise ValueError("give exactly one of agent and agent_factory")
     name = str(config.get("baseline", "cascade"))
     scale = float(config.get("scale", 0.3))
     factory = baseline_factory(name)
 
     def make(env: Any) -> ResidualPolicy:
         _check_mode(name, env.unwrapped.task)
-        return ResidualPolicy(agent, factory(env), scale)
+        inner = agent if agent_factory is None else agent_factory(env)
+        return ResidualPolicy(inner, factory(env), scale)
 
     return make
