@@ -36,7 +36,7 @@ import yaml
 
 from agents.common import METRIC_SEED_BASE, algo_class, algo_of_model, env_name, vecnormalize_for, write_json
 from agents.features import FEATURE_CLASS, feature_config, feature_policy
-from agents.residual import RESIDUAL_CLASS, residual_config, residual_policy
+from agents.residual import RESIDUAL_CLASS, SETPOINT_CLASS, residual_config, residual_policy
 
 REWARD_KWARGS: dict[str, frozenset[str]] = {
     "vsa_gym/ELPAS-ForceTracking-v0": frozenset({"w_force", "w_energy", "force_scale", "failure_penalty", "regen"}),
@@ -142,8 +142,8 @@ def wrapped_policy(agent: Any, vec_env_wrapper: Any) -> Any:
     for it in reversed(items):
         path, kw = next(iter(it.items())) if isinstance(it, Mapping) else (it, {})
         kw = dict(kw or {})
-        if path == RESIDUAL_CLASS:
-            factory = residual_policy(None, kw, agent_factory=factory)
+        if path in (RESIDUAL_CLASS, SETPOINT_CLASS):
+            factory = residual_policy(None, residual_config([{path: kw}]) or {}, agent_factory=factory)
         elif path == FEATURE_CLASS:
             factory = feature_policy(factory, kw)
         else:

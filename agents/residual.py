@@ -15,6 +15,14 @@ raw vector env, *before* ``VecNormalize``):
 * observation: the environment's observation with ``a_base`` appended (the baseline's states
   are not observable otherwise, and the agent needs to know what it corrects).
 
+A second form, :class:`SetpointResidualVecEnv`, corrects the baseline's *references* instead of its
+action: action component ``j`` shifts the observation channels ``channels[j]`` by ``scales[j] * a_j``
+before the baseline reads them, and the environment receives the baseline's action on the shifted
+observation; the agent observes the environment's observation.  On the vsaUT-II the agent then moves the
+decoupled controller's position and stiffness references (``r_ref``, ``log_K_ref``): the controller's I^2 t
+foldback, supply limits and anti-windup stay between the agent and the motors, so exploration cannot
+drive raw voltages into the drives' protection as an action correction does.
+
 The agent is therefore *not* a pure learned policy: tables label it "residual PPO over <baseline>".
 With a zero correction it is the baseline; PPO's initial policy has a near-zero mean, so training
 starts from the baseline's behaviour.  The same wrapper is in the rl-zoo3 format
@@ -28,7 +36,7 @@ Baselines (the eLPAS ones act on current references: they need ``control_mode="c
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -37,6 +45,7 @@ from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
 RESIDUAL_CLASS = "agents.residual.ResidualVecEnv"
+SETPOINT_CLASS = "agents.residual.SetpointResidualVecEnv"
 CURRENT_MODE_BASELINES = frozenset({"cascade", "skyhook", "passive"})
 
 
@@ -70,13 +79,15 @@ def residual_params(baseline: str, scale: float) -> dict[str, Any]:
 
 
 def residual_config(vec_env_wrapper: Any) -> dict[str, Any] | None:
-    """The ``ResidualVecEnv`` kwargs in a ``vec_env_wrapper`` hyperparameter entry (``None``: not residual)."""
+    """The ``ResidualVecEnv`` or ``SetpointResidualVecEnv`` kwargs in a ``vec_env_wrapper`` hyperparameter entry
+    (``None``: not residual); a setpoint entry has ``"form": "setpoint"``."""
     items = vec_env_wrapper if isinstance(vec_env_wrapper, list) else [vec_env_wrapper]
     for it in items:
-        if isinstance(it, Mapping) and RESIDUAL_CLASS in it:
-            return dict(it[RESIDUAL_CLASS] or {})
-        if it == RESIDUAL_CLASS:
-            return {}
+        for cls, form in ((RESIDUAL_CLASS, "action"), (SETPOINT_CLASS, "setpoint")):
+            if isinstance(it, Mapping) and cls in it:
+                return {**dict(it[cls] or {}), **({"form": form} if form == "setpoint" else {})}
+            if it == cls:
+                return {"form": form} if form == "setpoint" else {}
     return None
 
 
@@ -168,6 +179,113 @@ class ResidualVecEnv(VecEnvWrapper):
         return self._aug(obs, base), rew, done, infos
 
 
+class Setpoints:
+    """The reference shift of :class:`SetpointResidualVecEnv`: ``shift(obs (n, d), a (n, m)) -> obs'``.
+
+    ``channels[j]``: the observation names moved by action component ``j``; ``scales[j]``: how far (channel
+    units) a full action moves them.
+    """
+
+    def __init__(self, names: Sequence[str], channels: Sequence[Sequence[str]], scales: Sequence[float]) -> None:
+        if len(channels) != len(scales) or not channels:
+            raise ValueError(f"channels and scales need one entry per action component, got {len(channels)} "
+                             f"channel groups and {len(scales)} scales")
+        names = list(names)
+        self.cols: list[np.ndarray] = []
+        for j, group in enumerate(channels):
+            missing = [c for c in group if c not in names]
+            if missing or not group:
+                raise ValueError(f"setpoint component {j}: unknown observation channel(s) {missing or group}; "
+                                 f"the environment has {names}")
+            self.cols.append(np.array([names.index(c) for c in group], dtype=np.intp))
+        self.scales = np.array([float(x) for x in scales])
+        if not np.all(np.isfinite(self.scales) & (self.scales > 0)):
+            raise ValueError(f"scales must be finite and > 0, got {list(scales)}")
+
+    def shift(self, obs: np.ndarray, a: np.ndarray) -> np.ndarray:
+        o = np.array(obs, dtype=np.float32, copy=True)
+        a = np.clip(np.asarray(a, dtype=np.float32).reshape(o.shape[0], -1), -1.0, 1.0)
+        if a.shape[1] != len(self.cols):
+            raise ValueError(f"setpoint action has {a.shape[1]} components, expected {len(self.cols)}")
+        for j, cols in enumerate(self.cols):
+            o[:, cols] += (self.scales[j] * a[:, j])[:, None]
+        return o
+
+
+class SetpointResidualVecEnv(VecEnvWrapper):
+    """The baseline on references shifted by the agent (module docstring).
+
+    ``channels``: one list of observation names per action component (e.g. ``[[r_ref], [log_K_ref]]``);
+    ``scales``: the shift of a full action per component, in the channels' units.  Action space
+    ``Box(-1, 1, (len(channels),))``; observation: the environment's.
+    """
+
+    def __init__(self, venv: VecEnv, baseline: str = "decoupled", channels: Sequence[Sequence[str]] = (),
+                 scales: Sequence[float] = ()) -> None:
+        self.baseline = baseline
+        self._env = _task_env(venv)
+        task = self._env.unwrapped.task
+        _check_mode(baseline, task)
+        self.setpoints = Setpoints([c.name for c in task.obs_channels], channels, scales)
+        self._factory = baseline_factory(baseline)
+        self.policy = self._factory(self._env)
+        m = len(self.setpoints.cols)
+        act = gym.spaces.Box(-np.ones(m, dtype=np.float32), np.ones(m, dtype=np.float32), dtype=np.float32)
+        super().__init__(venv, observation_space=venv.observation_space, action_space=act)
+        self._obs = np.zeros((self.num_envs, *venv.observation_space.shape), dtype=np.float32)
+        self._fresh = np.arange(0)
+
+    def reset(self) -> np.ndarray:
+        self._obs = np.asarray(self.venv.reset(), dtype=np.float32)
+        if hasattr(self.policy, "reset"):
+            self.policy.reset()
+        self._fresh = np.arange(0)
+        return self._obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        shifted = self.setpoints.shift(self._obs, actions)
+        u = np.asarray(self.policy(shifted), dtype=np.float32).reshape(self.num_envs, -1)
+        rows = self._fresh
+        if rows.size and rows.size < self.num_envs:  # rows of new episodes: a fresh baseline's first call
+            fresh = self._factory(self._env)
+            if hasattr(fresh, "reset"):
+                fresh.reset()
+            u[rows] = np.asarray(fresh(shifted[rows]), dtype=np.float32).reshape(rows.size, -1)
+            reset_rows(self.policy, fresh, rows, self.num_envs)
+        self._fresh = np.arange(0)
+        self.venv.step_async(np.clip(u, -1.0, 1.0))
+
+    def step_wait(self) -> VecEnvStepReturn:
+        obs, rew, done, infos = self.venv.step_wait()
+        rows = np.flatnonzero(done)
+        if rows.size == self.num_envs:  # every episode ended (time limit): a fresh baseline
+            if hasattr(self.policy, "reset"):
+                self.policy.reset()
+        else:
+            self._fresh = rows
+        self._obs = np.asarray(obs, dtype=np.float32)
+        return self._obs, rew, done, infos
+
+
+class SetpointPolicy:
+    """Evaluation-time composition ``baseline(shift(obs, agent(obs)))`` of :class:`SetpointResidualVecEnv`."""
+
+    def __init__(self, agent: Callable[[np.ndarray], np.ndarray], baseline: Any, setpoints: Setpoints) -> None:
+        self.agent, self.baseline, self.setpoints = agent, baseline, setpoints
+
+    def reset(self) -> None:
+        for part in (self.baseline, self.agent):
+            if hasattr(part, "reset"):
+                part.reset()
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        o = np.atleast_2d(np.asarray(obs, dtype=np.float32))
+        a = np.asarray(self.agent(o), dtype=np.float32).reshape(o.shape[0], -1)
+        u = np.asarray(self.baseline(self.setpoints.shift(o, a)), dtype=np.float32).reshape(o.shape[0], -1)
+        out = np.clip(u, -1.0, 1.0)
+        return out[0] if np.ndim(obs) == 1 else out
+
+
 class ResidualPolicy:
     """Evaluation-time composition ``clip(baseline(obs) + scale * agent([obs, baseline(obs)]), -1, 1)``."""
 
@@ -200,11 +318,16 @@ def residual_policy(agent: Callable[[np.ndarray], np.ndarray] | None, config: Ma
         raise ValueError("give exactly one of agent and agent_factory")
     name = str(config.get("baseline", "cascade"))
     scale = float(config.get("scale", 0.3))
+    setpoint = config.get("form") == "setpoint"
     factory = baseline_factory(name)
 
-    def make(env: Any) -> ResidualPolicy:
-        _check_mode(name, env.unwrapped.task)
+    def make(env: Any) -> ResidualPolicy | SetpointPolicy:
+        task = env.unwrapped.task
+        _check_mode(name, task)
         inner = agent if agent_factory is None else agent_factory(env)
+        if setpoint:
+            sp = Setpoints([c.name for c in task.obs_channels], config.get("channels", ()), config.get("scales", ()))
+            return SetpointPolicy(inner, factory(env), sp)
         return ResidualPolicy(inner, factory(env), scale)
 
     return make

@@ -213,6 +213,17 @@ def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = Non
     return split_reward_kwargs(env_id, _py(kw) if isinstance(kw, str) else dict(kw))[1]
 
 
+def feature_note(algo: str, env_id: str, hyperparams: str | Path | None = None) -> str:
+    """``"; observes the leaky integral of body_accel"`` when the hyperparameters add observation features."""
+    from agents.common import read_hyperparams
+    from agents.features import feature_config
+
+    cfg = feature_config(read_hyperparams(algo, env_id, hyperparams).get("vec_env_wrapper"))
+    if cfg is None:
+        return ""
+    return f"; observes the leaky integral of {', '.join(cfg.get('channels', ['body_accel']))}"
+
+
 def reward_note(reward_kw: dict[str, Any]) -> str:
     """``"; trained with w_energy = 0.01"`` (empty for the default reward)."""
     return "".join(f"; trained with {k} = {v}" for k, v in sorted(reward_kw.items()))
@@ -354,8 +365,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     for r in swept if r["trial"]["env_id"] == env_id and r["trial"]["variant"] == variant]
             if rows:
                 k = steps_for[env_id] // 1000
-                note = reward_note(training_reward(a.algo, env_id,
-                                                   RESIDUAL_HYPERPARAMS if variant == "residual" else None))
+                hp_file = RESIDUAL_HYPERPARAMS if variant == "residual" else None
+                note = (feature_note(a.algo, env_id, hp_file)
+                        + reward_note(training_reward(a.algo, env_id, hp_file)))
                 name = (f"{a.algo.upper()} ({k}k steps{note})" if variant == "pure" else
                         f"residual {a.algo.upper()} over {res_envs[env_id]} ({k}k steps{note}; not a pure agent)")
                 agents[name] = rows

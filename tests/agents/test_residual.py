@@ -95,3 +95,48 @@ def test_residual_smoke_train_and_evaluate(tmp_path: Path) -> None:
     res = evaluate_agent(info["model"], FORCE, episodes=2, episode_steps=40)
     assert res["agent"]["residual"] == {"baseline": "cascade", "scale": 0.2}
     assert res["agent"]["env_kwargs"]["control_mode"] == "current" and res["steps"] == 40
+
+
+VSA = "vsa_gym/VsaUT2-PositionStiffness-v0"
+SETPOINT = {"agents.residual.SetpointResidualVecEnv": {"baseline": "decoupled", "channels": [["r_ref"], ["log_K_ref"]],
+                                                       "scales": [0.1, 0.5]}}
+
+
+def _lead(obs: np.ndarray) -> np.ndarray:
+    o = np.atleast_2d(obs)  # a setpoint agent that leads the position reference by its error
+    return np.clip(np.stack([5.0 * o[:, 13], 0.2 * np.ones(o.shape[0])], axis=1), -1, 1).astype(np.float32)
+
+
+def test_setpoint_residual_zero_shift_is_the_baseline_and_evaluation_matches_training() -> None:
+    from agents.evaluate import wrapped_policy
+
+    steps, seed = 120, 21
+    base = evaluate_policy(VSA, baseline_factory("decoupled"), [seed, seed + 1], episode_steps=steps)
+    zero = evaluate_policy(VSA, wrapped_policy(lambda o: np.zeros((np.atleast_2d(o).shape[0], 2), np.float32),
+                                               [SETPOINT]), [seed, seed + 1], episode_steps=steps)
+    assert zero["return"] == base["return"]
+    venv = make_train_env(VSA, 2, seed, {"max_episode_steps": 50}, None, vec_env_wrapper=[SETPOINT])
+    assert venv.action_space.shape == (2,) and venv.observation_space.shape == (15,)
+    obs, ret = venv.reset(), np.zeros(2)
+    ended = 0
+    for k in range(steps):  # the 50-step limit ends both rows twice: fresh baselines on the shifted references
+        obs, r, done, _ = venv.step(_lead(obs))
+        ret += r
+        ended += int(done.all())
+    assert ended == 2
+    lead = evaluate_policy(VSA, wrapped_policy(_lead, [SETPOINT]), [seed, seed + 1], episode_steps=50)
+    venv2 = make_train_env(VSA, 2, seed, {"max_episode_steps": 50}, None, vec_env_wrapper=[SETPOINT])
+    obs, first = venv2.reset(), np.zeros(2)
+    for _ in range(50):
+        obs, r, _, _ = venv2.step(_lead(obs))
+        first += r
+    assert first.mean() == pytest.approx(lead["return"], rel=1e-5)
+    assert lead["return"] != pytest.approx(evaluate_policy(VSA, baseline_factory("decoupled"), [seed, seed + 1],
+                                                           episode_steps=50)["return"], rel=1e-6)
+
+
+def test_setpoint_residual_names_bad_channels() -> None:
+    bad = {"agents.residual.SetpointResidualVecEnv": {"baseline": "decoupled", "channels": [["r_ref"], ["nope"]],
+                                                      "scales": [0.1, 0.5]}}
+    with pytest.raises(ValueError, match="component 1: unknown observation channel.*nope"):
+        make_train_env(VSA, 1, 0, None, None, vec_env_wrapper=[bad])
