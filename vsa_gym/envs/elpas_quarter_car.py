@@ -44,6 +44,9 @@ from vsa_gym.vehicle.comfort import wk_sos
 from vsa_gym.vehicle.road import ROAD_CLASSES, road_signal
 
 
+ENV_NAME = "ELPAS-QuarterCar-v0"
+
+
 @numba.njit(cache=True)
 def sos_step(sos: np.ndarray, x: np.ndarray, zi: np.ndarray) -> np.ndarray:
     """One sample per row through a second-order-section cascade, as ``scipy.signal.sosfilt`` computes it.
@@ -88,6 +91,7 @@ class QuarterCarTask(ElpasTask):
     def __init__(self, n: int, *, road_class: str = "B", speed: float = 20.0, road_duration_s: float = 12.0,
                  w_comfort: float = 1.0, w_travel: float = 1.0, w_tyre: float = 1.0, w_energy: float = 1e-3,
                  accel_scale: float = 1.0, travel_soft: float = 0.8, failure_penalty: float = 100.0,
+                 failure_rate: float = 1.0, episode_steps: int | None = None,
                  control_dt: float | None = 2e-3, params: ElpasParams | None = None, **kwargs: Any) -> None:
         super().__init__(n, control_dt=control_dt, params=default_task_params() if params is None else params,
                          **kwargs)
@@ -103,8 +107,18 @@ class QuarterCarTask(ElpasTask):
                   "energy": float(w_energy)}
         self.accel_scale, self.travel_soft = float(accel_scale), float(travel_soft)
         self.failure_penalty = float(failure_penalty)
+        if not (np.isfinite(failure_rate) and failure_rate >= 0):
+            raise ValueError(f"failure_rate must be a finite rate >= 0 per remaining step, got {failure_rate}")
+        if episode_steps is None:
+            from vsa_gym.envs import ENV_SPECS
+
+            episode_steps = ENV_SPECS[ENV_NAME][1]  # the registered time limit
+        if int(episode_steps) != episode_steps or episode_steps < 1:
+            raise ValueError(f"episode_steps must be a positive integer (the time limit in steps), got {episode_steps}")
+        self.failure_rate, self.episode_steps = float(failure_rate), int(episode_steps)
         self._weights = np.array([self.w["comfort"], self.w["travel"], self.w["tyre"], self.w["energy"],
-                                  self.accel_scale, self.travel_soft, self.failure_penalty])
+                                  self.accel_scale, self.travel_soft, self.failure_penalty, self.failure_rate,
+                                  float(self.episode_steps)])
         self.sos = wk_sos(1.0 / self.control_dt)
         self.s["road"] = np.zeros((self.n, self.road_steps + 1))
         self.s["road_k"] = np.zeros(self.n, dtype=np.intp)
@@ -177,13 +191,15 @@ class QuarterCarTask(ElpasTask):
         margins = self._margins(np.arange(self.n))
         fail = (margins["margin_gamma_stop"] <= 0) | (margins["margin_i2t"] <= 0) | (F_t <= 0.0) | \
             (margins["margin_travel"] <= 0)
+        steps = np.rint((self.s["t"] + self.control_dt) / self.control_dt)
+        remaining = np.maximum(self.episode_steps - steps, 0.0)
         terms = {
             "comfort": -self.w["comfort"] * (aw / self.accel_scale) ** 2,
             "travel": -self.w["travel"] * (np.maximum(travel_frac - self.travel_soft, 0.0)
                                            / (1.0 - self.travel_soft)) ** 2,
             "tyre": -self.w["tyre"] * ((F_t - F0) / F0) ** 2,
             "energy": -self.w["energy"] * charged / self.control_dt,
-            "failure": np.where(fail, -self.failure_penalty, 0.0),
+            "failure": np.where(fail, -(self.failure_penalty + self.failure_rate * remaining), 0.0),
         }
         info.update(margins)
         t_new = self.s["t"] + self.control_dt
@@ -259,7 +275,8 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     """Row ``i`` of :meth:`QuarterCarTask._advance` (road sample, physics, W_k filter, energy, margins, reward
     terms) into ``out[:, i]``; returns whether the new state is finite.
 
-    ``w = [w_comfort, w_travel, w_tyre, w_energy, accel_scale, travel_soft, failure_penalty]``; rows of ``out``:
+    ``w = [w_comfort, w_travel, w_tyre, w_energy, accel_scale, travel_soft, failure_penalty, failure_rate,
+    episode_steps]``; rows of ``out``:
     ``step_info``, the reward terms, then the ``OUT_*`` tail (``OUT_NEW_SEGMENT``: the road stretch has ended,
     Python draws the next one); the observation without noise into ``obs[i]``; advances ``t[i]``.
     ``drv``: ``s["drive"]``.
@@ -292,8 +309,8 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     r_travel = -w[1] * (max(travel_frac - w[5], 0.0) / (1.0 - w[5])) ** 2
     r_tyre = -w[2] * ((F_t - F0) / F0) ** 2
     r_energy = -w[3] * charged / dt
-    r_fail = -w[6] if fail else 0.0
     t_new = t[i] + dt
+    r_fail = -(w[6] + w[7] * max(w[8] - np.rint(t_new / dt), 0.0)) if fail else 0.0
     out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, mt, F_t / F0
     out[9, i], out[10, i], out[11, i] = acc, aw, F_t
     out[12, i] = np.sqrt(aw_sq[i] / max(t_new / dt, 1.0))
@@ -383,7 +400,17 @@ class ElpasQuarterCarEnv(TaskEnv):
         travel  = -w_travel (max(|alpha|/alpha_max - travel_soft, 0) / (1 - travel_soft))^2
         tyre    = -w_tyre ((F_t - F_0) / F_0)^2             dynamic tyre load, F_0 = (m_s + m_u) g
         energy  = -w_energy P_el                            P_el = E_el / control_dt (W), E_el from the core
-        failure = -failure_penalty on a failure step
+        failure = -(failure_penalty + failure_rate (episode_steps - k)) on a failure at step k, else 0
+
+    A failure ends the episode; the steps it did not take are charged at ``failure_rate`` (1.0) per step
+    up to ``episode_steps`` (default: the registered 5000; the native vector env takes its
+    ``max_episode_steps``).  With a fixed penalty alone, ending the ride early was cheaper than riding
+    on (the passive car costs about 0.3 per step, a whole episode about -1500): a PPO agent with little
+    exploration learned to end all its evaluation episodes on a constraint and scored a *higher*
+    return than the skyhook.  1.0 per step is more than three times what the passive car or the
+    skyhook pay per step, so a failure is dearer than finishing the ride with any reasonable policy.
+    With ``gym.make(..., max_episode_steps=N)`` (a ``TimeLimit`` the environment cannot see) pass
+    ``episode_steps=N`` as well.
 
     The episode mean of ``-comfort`` is the squared ISO 2631 weighted RMS (``info["a_w_rms"]``
     gives the running RMS).  Regeneration (``regen``): "clip" (default, no credit) or "count".
@@ -405,8 +432,8 @@ class ElpasQuarterCarEnv(TaskEnv):
     W_k filter), ``control_mode``, ``params``, ``domain_randomization`` (e.g.
     ``{{"car.m_s": (230, 290)}}``), ``sensor_noise`` (channels ``current``, ``force``, ``accel``),
     ``regen``, ``render_mode``, ``w_comfort``, ``w_travel``, ``w_tyre``, ``w_energy``,
-    ``accel_scale``, ``travel_soft``, ``failure_penalty`` and the drive options of
-    :class:`vsa_gym.envs.elpas_common.ElpasTask`.
+    ``accel_scale``, ``travel_soft``, ``failure_penalty``, ``failure_rate``, ``episode_steps`` and the drive
+    options of :class:`vsa_gym.envs.elpas_common.ElpasTask`.
 
     ## Version history
     * v0: initial release (class B road, 300 N s/m parallel damper by default).
@@ -416,6 +443,15 @@ class ElpasQuarterCarEnv(TaskEnv):
 
 
 class ElpasQuarterCarVectorEnv(TaskVectorEnv):
-    """Native vector version of :class:`ElpasQuarterCarEnv`."""
+    """Native vector version of :class:`ElpasQuarterCarEnv`.
+
+    Its time limit ``max_episode_steps`` is also the task's ``episode_steps`` (the horizon of the failure
+    charge) unless ``episode_steps`` is given.
+    """
 
     task_cls = QuarterCarTask
+
+    def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, **kwargs: Any) -> None:
+        if max_episode_steps is not None and kwargs.get("episode_steps") is None:
+            kwargs["episode_steps"] = max_episode_steps
+        super().__init__(num_envs, max_episode_steps=max_episode_steps, **kwargs)
