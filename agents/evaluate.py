@@ -39,7 +39,8 @@ from agents.features import FEATURE_CLASS, feature_config, feature_policy
 from agents.residual import RESIDUAL_CLASS, SETPOINT_CLASS, residual_config, residual_policy
 
 REWARD_KWARGS: dict[str, frozenset[str]] = {
-    "vsa_gym/ELPAS-ForceTracking-v0": frozenset({"w_force", "w_energy", "force_scale", "failure_penalty", "regen"}),
+    "vsa_gym/ELPAS-ForceTracking-v0": frozenset({"w_force", "w_energy", "force_scale", "failure_penalty",
+                                                 "failure_rate", "episode_steps", "regen"}),
     "vsa_gym/ELPAS-QuarterCar-v0": frozenset({"w_comfort", "w_travel", "w_tyre", "w_energy", "accel_scale",
                                               "travel_soft", "failure_penalty", "failure_rate", "episode_steps",
                                               "regen"}),

@@ -119,7 +119,7 @@ def test_setpoint_residual_zero_shift_is_the_baseline_and_evaluation_matches_tra
     assert venv.action_space.shape == (2,) and venv.observation_space.shape == (15,)
     obs, ret = venv.reset(), np.zeros(2)
     ended = 0
-    for k in range(steps):  # the 50-step limit ends both rows twice: fresh baselines on the shifted references
+    for _ in range(steps):  # the 50-step limit ends both rows twice: fresh baselines on the shifted references
         obs, r, done, _ = venv.step(_lead(obs))
         ret += r
         ended += int(done.all())

@@ -370,40 +370,43 @@ def test_vsaut2_failure_charges_the_remaining_steps() -> None:
         gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", failure_rate=-1.0)
 
 
-def test_quarter_car_failure_charges_the_remaining_steps() -> None:
-    """A quarter-car failure costs failure_penalty + failure_rate per step left, so ending the ride on a constraint
-    on purpose scores below riding it passively (with the fixed penalty alone it scored above the skyhook)."""
-    env = gym.make("vsa_gym/ELPAS-QuarterCar-v0")
+@pytest.mark.parametrize("env_id, rate", [("vsa_gym/ELPAS-QuarterCar-v0", 1.0),
+                                          ("vsa_gym/ELPAS-ForceTracking-v0", 2.0)])
+def test_elpas_failure_charges_the_remaining_steps(env_id: str, rate: float) -> None:
+    """An eLPAS failure costs failure_penalty + failure_rate per step left, so ending the episode on a constraint
+    on purpose scores below the zero action (on the quarter car, with the fixed penalty alone, it scored above
+    the skyhook)."""
+    env = gym.make(env_id)
     assert env.unwrapped.task.episode_steps == env.spec.max_episode_steps == 5000
+
+    def crash(e: gym.Env) -> tuple[float, int, dict]:
+        e.reset(seed=1)
+        ret, k = 0.0, 0
+        while True:  # full voltage: the cone turns into its gamma end stop
+            _, r, term, trunc, info = e.step(np.array([1.0], dtype=np.float32))
+            ret, k = ret + r, k + 1
+            assert not trunc
+            if term:
+                return ret, k, info
+
+    ret, k, info = crash(env)
+    assert info["margin_gamma_stop"] <= 0.0
+    assert info["reward_failure"] == pytest.approx(-(100.0 + rate * (5000 - k)), rel=1e-12)
     env.reset(seed=1)
-    ret, k, info = 0.0, 0, {}
-    while True:  # full voltage: the cone turns into its gamma end stop
-        _, r, term, trunc, info = env.step(np.array([1.0], dtype=np.float32))
-        ret, k = ret + r, k + 1
-        assert not trunc
-        if term:
-            break
-    assert info["reward_failure"] == pytest.approx(-(100.0 + 1.0 * (5000 - k)), rel=1e-12)
-    env.reset(seed=1)
-    passive = 0.0
-    for _ in range(5000):  # zero voltage: the shorted motor holds the cone (the passive car)
-        _, r, term, trunc, _ = env.step(np.array([0.0], dtype=np.float32))
-        passive += r
+    zero = 0.0
+    for _ in range(5000):  # zero voltage: the shorted motor holds the cone
+        _, r, term, _, _ = env.step(np.array([0.0], dtype=np.float32))
+        zero += r
         assert not term
-    assert ret < passive
-    env2 = gym.make("vsa_gym/ELPAS-QuarterCar-v0", failure_rate=0.5, episode_steps=900,
-                    failure_penalty=5.0)
-    env2.reset(seed=1)
-    for k2 in range(1, 5000):
-        *_, term, _, info2 = env2.step(np.array([1.0], dtype=np.float32))
-        if term:
-            break
+    assert ret < zero
+    _, k2, info2 = crash(gym.make(env_id, failure_rate=0.5, episode_steps=900, failure_penalty=5.0))
     assert k2 == k and info2["reward_failure"] == pytest.approx(-(5.0 + 0.5 * (900 - k2)), rel=1e-12)
-    venv = gym.make_vec("vsa_gym/ELPAS-QuarterCar-v0", num_envs=2, vectorization_mode="vector_entry_point",
-                        max_episode_steps=700)
+    venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=700)
     assert venv.unwrapped.task.episode_steps == 700
     with pytest.raises(ValueError, match="failure_rate"):
-        gym.make("vsa_gym/ELPAS-QuarterCar-v0", failure_rate=float("nan"))
+        gym.make(env_id, failure_rate=float("nan"))
+    with pytest.raises(ValueError, match="episode_steps"):
+        gym.make(env_id, episode_steps=0)
 
 
 def test_quarter_car_wk_filter_step_equals_scipy_sosfilt() -> None:

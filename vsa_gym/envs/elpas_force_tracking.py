@@ -35,8 +35,20 @@ from vsa_gym.envs.elpas_common import (
     _obs_rows,
 )
 from vsa_gym.envs.signals import Multisine, SegmentReference, _multisine_value, _segment_value
-from vsa_gym.envs.task import OUT_CLIPPED, OUT_FAIL, OUT_REWARD, ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import (
+    OUT_CLIPPED,
+    OUT_FAIL,
+    OUT_REWARD,
+    ObsChannel,
+    TaskEnv,
+    failure_horizon,
+    horizon_from_time_limit,
+    indent,
+    obs_table,
+)
 from vsa_gym.envs.vector import TaskVectorEnv
+
+ENV_NAME = "ELPAS-ForceTracking-v0"
 
 
 class ForceTrackingTask(ElpasTask):
@@ -50,8 +62,11 @@ class ForceTrackingTask(ElpasTask):
 
     def __init__(self, n: int, *, w_force: float = 1.0, w_energy: float = 1e-3, force_scale: float = 500.0,
                  force_range: tuple[float, float] = (1900.0, 3200.0), alpha_amplitude: float = np.deg2rad(15.0),
-                 failure_penalty: float = 100.0, **kwargs: Any) -> None:
+                 failure_penalty: float = 100.0, failure_rate: float = 2.0, episode_steps: int | None = None,
+                 **kwargs: Any) -> None:
         super().__init__(n, **kwargs)
+        rate, self.episode_steps = failure_horizon(ENV_NAME, failure_rate, episode_steps)
+        self.failure_rate = float(rate)
         self.w_force, self.w_energy = float(w_force), float(w_energy)
         self.force_scale, self.failure_penalty = float(force_scale), float(failure_penalty)
         a_max = float(np.min(self.base_rows[0].cone.alpha_max))
@@ -63,7 +78,8 @@ class ForceTrackingTask(ElpasTask):
         self.ref.alloc(self.s, self.n)
         self.s["f_ref"] = np.zeros(self.n)
         lo, hi = force_range
-        self._weights = np.array([self.w_force, self.force_scale, self.w_energy, self.failure_penalty])
+        self._weights = np.array([self.w_force, self.force_scale, self.w_energy, self.failure_penalty,
+                                  self.failure_rate, float(self.episode_steps)])
         self._set_channels(self._common_channels() + [
             ObsChannel("force_ref", "N", float(lo), float(hi), "force reference"),
             ObsChannel("force_err", "N", float(lo) - 6000.0, float(hi), "force_ref - force"),
@@ -109,7 +125,9 @@ class ForceTrackingTask(ElpasTask):
         terms = {
             "force": -self.w_force * (err / self.force_scale) ** 2,
             "energy": -self.w_energy * charged / self.control_dt,
-            "failure": np.where(fail, -self.failure_penalty, 0.0),
+            "failure": np.where(fail, -(self.failure_penalty + self.failure_rate
+                                        * np.maximum(self.episode_steps - np.rint(t_new / self.control_dt), 0.0)),
+                                0.0),
         }
         info.update(margins)
         info.update({"force_error": err, "alpha": self.s["x"][:, em.ALPHA].copy()})
@@ -148,7 +166,8 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     (:class:`SegmentReference`; ``out[OUT_NEW_SEGMENT]`` flags the rows whose segment has ended) and the
     observation without noise into ``obs[i]``; advances ``t[i]``.
 
-    ``drv``: ``s["drive"]``; ``w = [w_force, force_scale, w_energy, failure_penalty]``; rows of ``out``:
+    ``drv``: ``s["drive"]``; ``w = [w_force, force_scale, w_energy, failure_penalty, failure_rate,
+    episode_steps]``; rows of ``out``:
     ``step_info``, the reward terms, then the ``OUT_*`` tail.
     """
     pi_int, i2t, meas, vel = drv[:, D_PI], drv[:, D_I2T], drv[:, D_MEAS:D_MEAS + 2], drv[:, D_VEL:D_VEL + 2]
@@ -165,7 +184,7 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     fail = (mg <= 0) or (mi <= 0)
     r_force = -w[0] * (err / w[1]) ** 2
     r_energy = -w[2] * charged / dt
-    r_fail = -w[3] if fail else 0.0
+    r_fail = -(w[3] + w[4] * max(w[5] - np.rint(t_new / dt), 0.0)) if fail else 0.0
     out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, err, x[i, em.ALPHA]
     out[9, i], out[10, i], out[11, i] = r_force, r_energy, r_fail
     m = 12
@@ -246,7 +265,13 @@ class ElpasForceTrackingEnv(TaskEnv):
 
         force   = -w_force ((F_act - F_ref) / force_scale)^2          (force_scale = 500 N)
         energy  = -w_energy P_el                                        (w_energy = 1e-3 per W)
-        failure = -failure_penalty on a failure step
+        failure = -(failure_penalty + failure_rate (episode_steps - k)) on a failure at step k, else 0
+
+    A failure ends the episode; the steps it skips are charged at ``failure_rate`` (2.0, three times
+    what the zero action pays per step) up to ``episode_steps`` (default: the registered 5000; the
+    native vector env takes its ``max_episode_steps``; with ``gym.make(..., max_episode_steps=N)`` pass
+    ``episode_steps=N`` as well), so that ending an episode on a constraint is never the cheaper way
+    out of tracking (a fixed penalty alone would make it so; see ``ELPAS-QuarterCar-v0``).
 
     ``P_el = E_el / control_dt`` is the mean electrical power over the step, ``E_el`` the
     core's integral of ``u_eff i``.  Regenerated energy (``regen``): ``"clip"`` (default) --
@@ -266,7 +291,8 @@ class ElpasForceTrackingEnv(TaskEnv):
     (:class:`vsa_gym.elpas.params.ElpasParams`, e.g. identified), ``domain_randomization``
     (``{{"friction.F_c": (0.15, 0.3), ...}}``), ``sensor_noise`` (False | True | scale |
     ``{{"current": A, "force": N}}``), ``regen``, ``render_mode``, ``w_force``, ``w_energy``,
-    ``force_scale``, ``force_range``, ``alpha_amplitude``, ``failure_penalty``, ``current_loop``
+    ``force_scale``, ``force_range``, ``alpha_amplitude``, ``failure_penalty``, ``failure_rate``,
+    ``episode_steps``, ``current_loop``
     (:class:`~vsa_gym.envs.elpas_common.ElpasCurrentLoop`), ``i_nominal``, ``i2t_trip_s``,
     ``velocity_cutoff_hz``, ``parallel_rows`` (vector env: the compiled step's row loop on all cores from 64
     rows; off by default, see docs/performance.md).
@@ -279,6 +305,11 @@ class ElpasForceTrackingEnv(TaskEnv):
 
 
 class ElpasForceTrackingVectorEnv(TaskVectorEnv):
-    """Native vector version of :class:`ElpasForceTrackingEnv`."""
+    """Native vector version of :class:`ElpasForceTrackingEnv`; its time limit ``max_episode_steps`` is also the
+    task's ``episode_steps`` (the horizon of the failure charge) unless ``episode_steps`` is given."""
 
     task_cls = ForceTrackingTask
+
+    def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, **kwargs: Any) -> None:
+        horizon_from_time_limit(max_episode_steps, kwargs)
+        super().__init__(num_envs, max_episode_steps=max_episode_steps, **kwargs)

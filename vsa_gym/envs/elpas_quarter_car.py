@@ -38,11 +38,20 @@ from vsa_gym.envs.elpas_common import (
     _obs_rows,
 )
 from vsa_gym.envs.sensing import add_noise
-from vsa_gym.envs.task import OUT_CLIPPED, OUT_FAIL, OUT_REWARD, ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import (
+    OUT_CLIPPED,
+    OUT_FAIL,
+    OUT_REWARD,
+    ObsChannel,
+    TaskEnv,
+    failure_horizon,
+    horizon_from_time_limit,
+    indent,
+    obs_table,
+)
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.vehicle.comfort import wk_sos
 from vsa_gym.vehicle.road import ROAD_CLASSES, road_signal
-
 
 ENV_NAME = "ELPAS-QuarterCar-v0"
 
@@ -107,15 +116,8 @@ class QuarterCarTask(ElpasTask):
                   "energy": float(w_energy)}
         self.accel_scale, self.travel_soft = float(accel_scale), float(travel_soft)
         self.failure_penalty = float(failure_penalty)
-        if not (np.isfinite(failure_rate) and failure_rate >= 0):
-            raise ValueError(f"failure_rate must be a finite rate >= 0 per remaining step, got {failure_rate}")
-        if episode_steps is None:
-            from vsa_gym.envs import ENV_SPECS
-
-            episode_steps = ENV_SPECS[ENV_NAME][1]  # the registered time limit
-        if int(episode_steps) != episode_steps or episode_steps < 1:
-            raise ValueError(f"episode_steps must be a positive integer (the time limit in steps), got {episode_steps}")
-        self.failure_rate, self.episode_steps = float(failure_rate), int(episode_steps)
+        rate, self.episode_steps = failure_horizon(ENV_NAME, failure_rate, episode_steps)
+        self.failure_rate = float(rate)
         self._weights = np.array([self.w["comfort"], self.w["travel"], self.w["tyre"], self.w["energy"],
                                   self.accel_scale, self.travel_soft, self.failure_penalty, self.failure_rate,
                                   float(self.episode_steps)])
@@ -452,6 +454,5 @@ class ElpasQuarterCarVectorEnv(TaskVectorEnv):
     task_cls = QuarterCarTask
 
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, **kwargs: Any) -> None:
-        if max_episode_steps is not None and kwargs.get("episode_steps") is None:
-            kwargs["episode_steps"] = max_episode_steps
+        horizon_from_time_limit(max_episode_steps, kwargs)
         super().__init__(num_envs, max_episode_steps=max_episode_steps, **kwargs)

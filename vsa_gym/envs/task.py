@@ -62,6 +62,31 @@ def obs_table(channels: Sequence[ObsChannel]) -> str:
     return "\n".join(lines)
 
 
+def failure_horizon(env_name: str, failure_rate: float | None, episode_steps: int | None) -> tuple[float | None, int]:
+    """Checked ``(failure_rate, episode_steps)`` of a task whose failure charges the steps it skips.
+
+    A failure at step ``k`` costs ``failure_penalty + failure_rate (episode_steps - k)``: a fixed penalty
+    alone lets a policy end episodes on purpose when the rest of the episode would cost more.
+    ``episode_steps`` defaults to the registered time limit of ``env_name``; ``failure_rate`` may be
+    ``None`` where the task computes its own default.
+    """
+    if failure_rate is not None and not (np.isfinite(failure_rate) and failure_rate >= 0):
+        raise ValueError(f"failure_rate must be a finite rate >= 0 per remaining step, got {failure_rate}")
+    if episode_steps is None:
+        from vsa_gym.envs import ENV_SPECS
+
+        episode_steps = ENV_SPECS[env_name][1]
+    if int(episode_steps) != episode_steps or episode_steps < 1:
+        raise ValueError(f"episode_steps must be a positive integer (the time limit in steps), got {episode_steps}")
+    return (None if failure_rate is None else float(failure_rate)), int(episode_steps)
+
+
+def horizon_from_time_limit(max_episode_steps: int | None, kwargs: dict[str, Any]) -> None:
+    """A native vector env's time limit is also its task's ``episode_steps`` unless that is given (in place)."""
+    if max_episode_steps is not None and kwargs.get("episode_steps") is None:
+        kwargs["episode_steps"] = max_episode_steps
+
+
 def indent(text: str, prefix: str = "    ") -> str:
     """Indent every line (for tables inserted into class docstrings)."""
     return "\n".join(prefix + line for line in text.splitlines())

@@ -9,7 +9,17 @@ import numpy as np
 
 from vsa_gym.envs.elpas_common import _actions_finite
 from vsa_gym.envs.signals import SegmentReference, _segment_value
-from vsa_gym.envs.task import OUT_CLIPPED, OUT_FAIL, OUT_REWARD, ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import (
+    OUT_CLIPPED,
+    OUT_FAIL,
+    OUT_REWARD,
+    ObsChannel,
+    TaskEnv,
+    failure_horizon,
+    horizon_from_time_limit,
+    indent,
+    obs_table,
+)
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.envs.vsaut2_common import (
     C_DT,
@@ -69,16 +79,7 @@ class PositionStiffnessTask(VsaUT2Task):
         self.w = {"position": float(w_position), "stiffness": float(w_stiffness), "energy": float(w_energy)}
         self.position_scale, self.log_stiffness_scale = float(position_scale), float(log_stiffness_scale)
         self.failure_penalty = float(failure_penalty)
-        if episode_steps is None:
-            from vsa_gym.envs import ENV_SPECS
-
-            episode_steps = ENV_SPECS[ENV_NAME][1]  # the registered time limit
-        if int(episode_steps) != episode_steps or episode_steps < 1:
-            raise ValueError(f"episode_steps must be a positive integer (the time limit in steps), got {episode_steps}")
-        self.episode_steps = int(episode_steps)
-        if failure_rate is not None and not (np.isfinite(failure_rate) and failure_rate >= 0):
-            raise ValueError(f"failure_rate must be a finite rate >= 0 per remaining step, or None, got {failure_rate}")
-        self._failure_rate_arg = None if failure_rate is None else float(failure_rate)
+        self._failure_rate_arg, self.episode_steps = failure_horizon(ENV_NAME, failure_rate, episode_steps)
         self.position_range = float(position_range)
         self.stiffness_range = (float(stiffness_range[0]), float(stiffness_range[1]))
         q2_max = float(np.min(self.base_rows[0].q2_max))
@@ -379,6 +380,5 @@ class VsaUT2PositionStiffnessVectorEnv(TaskVectorEnv):
     task_cls = PositionStiffnessTask
 
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, **kwargs: Any) -> None:
-        if max_episode_steps is not None and kwargs.get("episode_steps") is None:
-            kwargs["episode_steps"] = max_episode_steps
+        horizon_from_time_limit(max_episode_steps, kwargs)
         super().__init__(num_envs, max_episode_steps=max_episode_steps, **kwargs)
