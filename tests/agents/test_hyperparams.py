@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import gymnasium as gym
 import pytest
 import rl_zoo3.exp_manager as rl_zoo3_exp  # noqa: E402  (installed by the test extra)
 import yaml
@@ -32,7 +33,18 @@ def test_rl_zoo3_reads_our_yaml(tmp_path: Path, algo: str, env_id: str) -> None:
     zoo = _zoo(algo, env_id, tmp_path)
     raw, _ = zoo.read_hyperparameters()
     zoo_hp, env_wrapper, callbacks, vec_wrapper = zoo._preprocess_hyperparams(dict(raw))
-    assert env_wrapper is None and callbacks == [] and vec_wrapper is None
+    assert env_wrapper is None and callbacks == []
+    if raw.get("vec_env_wrapper") is None:
+        assert vec_wrapper is None
+    else:  # rl-zoo3 builds our observation-feature wrapper on its own DummyVecEnv
+        from stable_baselines3.common.vec_env import DummyVecEnv
+
+        from agents.features import LeakyIntegralVecEnv
+
+        base = gym.make(env_id, **zoo.env_kwargs)
+        wrapped = vec_wrapper(DummyVecEnv([lambda: gym.make(env_id, **zoo.env_kwargs)]))
+        assert isinstance(wrapped, LeakyIntegralVecEnv)
+        assert wrapped.observation_space.shape[0] == base.observation_space.shape[0] + len(wrapped.channels)
     assert zoo.normalize is True  # rl-zoo3 wraps in VecNormalize, as we do
 
     ours = process_hyperparams(read_hyperparams(algo, env_id), n_actions=2)
