@@ -271,10 +271,11 @@ class ElpasForceTrackingEnv(TaskEnv):
     ``episode_steps`` (default: the registered 5000; the native vector env takes its ``max_episode_steps``;
     with ``gym.make(..., max_episode_steps=N)`` pass ``episode_steps=N`` as well), so that ending an
     episode on a constraint cannot be the cheap way out of tracking (about 2.0, three times what the zero
-    action pays per step, does that).  The default is 0 (the fixed penalty alone): PPO agents trained with
-    2.0 tracked worse (221-253 N, 4 of 24 held-out episodes ended on a constraint) than with 0 (153 N, none),
-    the lump charge of an early failure swamping the normalised tracking reward, and no agent was seen to
-    end episodes on purpose here (see ``ELPAS-QuarterCar-v0`` for one that did).
+    action pays per step, does that).  The default is 0 (the fixed penalty alone): the table's PPO agents
+    (docs/agents.md) trained with 2.0 tracked worse on the same 8 held-out episodes (242 N mean, 4 of 24
+    episodes ended on a constraint) than with 0 (212 N, 2 of 24): the lump charge of an early failure
+    swamps the normalised tracking reward.  No agent was seen to end episodes on purpose here (see
+    ``ELPAS-QuarterCar-v0`` for one that did).
 
     ``P_el = E_el / control_dt`` is the mean electrical power over the step, ``E_el`` the
     core's integral of ``u_eff i``.  Regenerated energy (``regen``): ``"clip"`` (default) --
