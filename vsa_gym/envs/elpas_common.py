@@ -39,12 +39,12 @@ from vsa_gym.elpas.params import ElpasParams, NumericsParams
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
 from vsa_gym.envs.task import (
-    STATUS_BAD_ACTION,
     STATUS_BAD_STATE,
     CompiledStepTask,
     ControlMode,
     ObsChannel,
     RegenPolicy,
+    _clip_obs_row,
 )
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
@@ -261,10 +261,6 @@ class ElpasTask(CompiledStepTask):
             raise ValueError("step_vehicle: the state became non-finite (check inputs and parameters)")
 
     # ------------------------------------------------------------------ compiled step
-    def _use_kernel(self) -> bool:
-        owner = self._kernel_owner
-        return owner is not None and type(self)._advance is owner._advance
-
     #: the task's compiled steps: (row loop, row loop over all cores)
     _kernels: ClassVar[tuple[Callable[..., int], Callable[..., int]] | None] = None
 
@@ -282,15 +278,7 @@ class ElpasTask(CompiledStepTask):
 
     def _kernel_step(self, action: Any) -> np.ndarray:
         """The compiled :meth:`BatchedTask.step` up to ``info``; returns ``out`` ``(n_out, n)`` (see ``OUT_*``)."""
-        n = self.n
-        if isinstance(action, np.ndarray) and action.shape == (n, 1) and action.dtype.kind == "f":
-            a = action.astype(np.float64, copy=False)  # clipped and checked for finiteness in the compiled step
-        else:
-            a, _ = self.validate_action(action)
-        out = np.empty((self._n_info + N_OUT_TAIL, n))
-        status = self._run_kernel(a, out)
-        if status == STATUS_BAD_ACTION:
-            self.validate_action(action)  # raises ValueError naming the component; nothing was changed
+        out, status = self._compiled_call(action, N_OUT_TAIL)
         self._check_finite(status != STATUS_BAD_STATE)
         if self._analog_noisy:
             self._read_analog(self._all_rows, out[-N_OUT_TAIL + OUT_F])
@@ -486,16 +474,6 @@ def _obs_clip_into(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np
 
 
 @register_jitable
-def _actions_finite(a: np.ndarray) -> bool:
-    """All actions finite? (checked before the compiled steps change anything)."""
-    for i in range(a.shape[0]):
-        for k in range(a.shape[1]):
-            if not np.isfinite(a[i, k]):
-                return False
-    return True
-
-
-@register_jitable
 def _clip_action(a: np.ndarray, i: int) -> tuple[float, bool]:
     """Row ``i``'s command clipped to ``[-1, 1]`` and whether it was outside (``task._clip_actions``)."""
     v = a[i, 0]
@@ -517,5 +495,4 @@ def _obs_clip_row(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.
     """Row ``i`` of :func:`_obs_clip_into`."""
     o = np.empty(6 + n_extra)
     _obs_row(meas, vel, cur, force, extra, n_extra, i, o)
-    for k in range(o.shape[0]):
-        obs[i, k] = min(max(o[k], lo[k]), hi[k])
+    _clip_obs_row(o, lo, hi, obs, i)

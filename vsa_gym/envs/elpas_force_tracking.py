@@ -23,9 +23,7 @@ from vsa_gym.envs.elpas_common import (
     N_OUT_TAIL,
     OUT_F,
     OUT_NEW_SEGMENT,
-    STATUS_BAD_ACTION,
     ElpasTask,
-    _actions_finite,
     _clip_action,
     _drive_margins_row,
     _drive_row,
@@ -39,8 +37,11 @@ from vsa_gym.envs.task import (
     OUT_CLIPPED,
     OUT_FAIL,
     OUT_REWARD,
+    STATUS_BAD_ACTION,
     ObsChannel,
     TaskEnv,
+    _actions_finite,
+    failure_charge,
     failure_horizon,
     horizon_from_time_limit,
     indent,
@@ -125,9 +126,8 @@ class ForceTrackingTask(ElpasTask):
         terms = {
             "force": -self.w_force * (err / self.force_scale) ** 2,
             "energy": -self.w_energy * charged / self.control_dt,
-            "failure": np.where(fail, -(self.failure_penalty + self.failure_rate
-                                        * np.maximum(self.episode_steps - np.rint(t_new / self.control_dt), 0.0)),
-                                0.0),
+            "failure": np.where(fail, failure_charge(self.failure_penalty, self.failure_rate,
+                                                     np.rint(t_new / self.control_dt), self.episode_steps), 0.0),
         }
         info.update(margins)
         info.update({"force_error": err, "alpha": self.s["x"][:, em.ALPHA].copy()})
@@ -184,7 +184,7 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     fail = (mg <= 0) or (mi <= 0)
     r_force = -w[0] * (err / w[1]) ** 2
     r_energy = -w[2] * charged / dt
-    r_fail = -(w[3] + w[4] * max(w[5] - np.rint(t_new / dt), 0.0)) if fail else 0.0
+    r_fail = failure_charge(w[3], w[4], np.rint(t_new / dt), w[5]) if fail else 0.0
     out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, err, x[i, em.ALPHA]
     out[9, i], out[10, i], out[11, i] = r_force, r_energy, r_fail
     m = 12
@@ -270,12 +270,12 @@ class ElpasForceTrackingEnv(TaskEnv):
     A failure ends the episode.  ``failure_rate`` > 0 also charges every step it skips, up to
     ``episode_steps`` (default: the registered 5000; the native vector env takes its ``max_episode_steps``;
     with ``gym.make(..., max_episode_steps=N)`` pass ``episode_steps=N`` as well), so that ending an
-    episode on a constraint cannot be the cheap way out of tracking (about 2.0, three times what the zero
-    action pays per step, does that).  The default is 0 (the fixed penalty alone): the table's PPO agents
-    (docs/agents.md) trained with 2.0 tracked worse on the same 8 held-out episodes (242 N mean, 4 of 24
-    episodes ended on a constraint) than with 0 (212 N, 2 of 24): the lump charge of an early failure
-    swamps the normalised tracking reward.  No agent was seen to end episodes on purpose here (see
-    ``ELPAS-QuarterCar-v0`` for one that did).
+    episode on a constraint cannot be the cheap way out of tracking (2.0, about twice what the zero action
+    pays per step on the table's 8 held-out episodes, does that).  The default is 0 (the fixed penalty
+    alone): the table's PPO agents (docs/agents.md) trained with 2.0 tracked worse on the same 8 held-out
+    episodes (242 N mean, 4 of 24 episodes ended on a constraint) than with 0 (212 N, 2 of 24): the lump
+    charge of an early failure swamps the normalised tracking reward.  No agent was seen to end episodes
+    on purpose here (see ``ELPAS-QuarterCar-v0`` for one that did).
 
     ``P_el = E_el / control_dt`` is the mean electrical power over the step, ``E_el`` the
     core's integral of ``u_eff i``.  Regenerated energy (``regen``): ``"clip"`` (default) --

@@ -25,10 +25,7 @@ from vsa_gym.envs.elpas_common import (
     N_OUT_TAIL,
     OUT_F,
     OUT_NEW_SEGMENT,
-    STATUS_BAD_ACTION,
-    STATUS_BAD_STATE,
     ElpasTask,
-    _actions_finite,
     _clip_action,
     _drive_margins_row,
     _drive_row,
@@ -42,8 +39,12 @@ from vsa_gym.envs.task import (
     OUT_CLIPPED,
     OUT_FAIL,
     OUT_REWARD,
+    STATUS_BAD_ACTION,
+    STATUS_BAD_STATE,
     ObsChannel,
     TaskEnv,
+    _actions_finite,
+    failure_charge,
     failure_horizon,
     horizon_from_time_limit,
     indent,
@@ -193,18 +194,17 @@ class QuarterCarTask(ElpasTask):
         margins = self._margins(np.arange(self.n))
         fail = (margins["margin_gamma_stop"] <= 0) | (margins["margin_i2t"] <= 0) | (F_t <= 0.0) | \
             (margins["margin_travel"] <= 0)
-        steps = np.rint((self.s["t"] + self.control_dt) / self.control_dt)
-        remaining = np.maximum(self.episode_steps - steps, 0.0)
+        t_new = self.s["t"] + self.control_dt
         terms = {
             "comfort": -self.w["comfort"] * (aw / self.accel_scale) ** 2,
             "travel": -self.w["travel"] * (np.maximum(travel_frac - self.travel_soft, 0.0)
                                            / (1.0 - self.travel_soft)) ** 2,
             "tyre": -self.w["tyre"] * ((F_t - F0) / F0) ** 2,
             "energy": -self.w["energy"] * charged / self.control_dt,
-            "failure": np.where(fail, -(self.failure_penalty + self.failure_rate * remaining), 0.0),
+            "failure": np.where(fail, failure_charge(self.failure_penalty, self.failure_rate,
+                                                     np.rint(t_new / self.control_dt), self.episode_steps), 0.0),
         }
         info.update(margins)
-        t_new = self.s["t"] + self.control_dt
         info.update({"body_accel": acc, "weighted_accel": aw, "tyre_force": F_t,
                      "a_w_rms": np.sqrt(self.s["aw_sq_sum"] / np.maximum(t_new / self.control_dt, 1.0)),
                      "road_height": road_end, "suspension_travel": em.suspension_travel(p, x)})
@@ -312,7 +312,7 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     r_tyre = -w[2] * ((F_t - F0) / F0) ** 2
     r_energy = -w[3] * charged / dt
     t_new = t[i] + dt
-    r_fail = -(w[6] + w[7] * max(w[8] - np.rint(t_new / dt), 0.0)) if fail else 0.0
+    r_fail = failure_charge(w[6], w[7], np.rint(t_new / dt), w[8]) if fail else 0.0
     out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, mt, F_t / F0
     out[9, i], out[10, i], out[11, i] = acc, aw, F_t
     out[12, i] = np.sqrt(aw_sq[i] / max(t_new / dt, 1.0))

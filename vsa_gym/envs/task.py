@@ -35,6 +35,7 @@ import gymnasium as gym
 import numba
 import numpy as np
 from gymnasium.utils import seeding
+from numba.extending import register_jitable
 
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, resolve_noise
@@ -79,6 +80,13 @@ def failure_horizon(env_name: str, failure_rate: float | None, episode_steps: in
     if int(episode_steps) != episode_steps or episode_steps < 1:
         raise ValueError(f"episode_steps must be a positive integer (the time limit in steps), got {episode_steps}")
     return (None if failure_rate is None else float(failure_rate)), int(episode_steps)
+
+
+@register_jitable
+def failure_charge(penalty: Any, rate: Any, steps_done: Any, episode_steps: Any) -> Any:
+    """``-(penalty + rate max(episode_steps - steps_done, 0))``: the failure term of a failure after ``steps_done``
+    control steps (see :func:`failure_horizon`); arrays or scalars, and callable from the compiled steps."""
+    return -(penalty + rate * np.maximum(episode_steps - steps_done, 0.0))
 
 
 def horizon_from_time_limit(max_episode_steps: int | None, kwargs: dict[str, Any]) -> None:
@@ -335,6 +343,23 @@ STATUS_BAD_ACTION, STATUS_BAD_STATE = -1, -2
 a non-finite new state."""
 
 
+@register_jitable
+def _actions_finite(a: np.ndarray) -> bool:
+    """All actions finite? (checked by the compiled steps before they change anything)."""
+    for i in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            if not np.isfinite(a[i, k]):
+                return False
+    return True
+
+
+@register_jitable
+def _clip_obs_row(o: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, i: int) -> None:
+    """``BatchedTask._clip_obs`` of one row: ``o`` clipped in float64, stored into ``obs[i]``."""
+    for k in range(o.shape[0]):
+        obs[i, k] = min(max(o[k], lo[k]), hi[k])
+
+
 class CompiledStepTask(BatchedTask):
     """A task whose :meth:`step` runs as one compiled call for all rows (the eLPAS and vsaUT-II tasks).
 
@@ -373,7 +398,30 @@ class CompiledStepTask(BatchedTask):
         return memo[2]
 
     def _use_kernel(self) -> bool:
+        """Whether :meth:`step` runs the compiled step: the task's ``_advance`` is the one it implements."""
+        owner = self._kernel_owner
+        return owner is not None and type(self)._advance is owner._advance
+
+    def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
+        """Run the task's compiled step on the raw actions ``a`` ``(n, m)``; returns ``STATUS_BAD_ACTION``,
+        ``STATUS_BAD_STATE`` (nothing changed) or the task's count of flagged rows."""
         raise NotImplementedError
+
+    def _compiled_call(self, action: Any, n_tail: int) -> tuple[np.ndarray, int]:
+        """The compiled step on ``action``: ``(out, status)`` with ``out`` ``(m + n_tail, n)``.  A float array of
+        the action shape goes in as it is (the compiled step clips it and checks it is finite); a non-finite
+        action raises the ``ValueError`` of :meth:`validate_action`, with nothing changed."""
+        n = self.n
+        if isinstance(action, np.ndarray) and action.shape == (n, len(self.action_names)) \
+                and action.dtype.kind == "f":
+            a = action.astype(np.float64, copy=False)
+        else:
+            a, _ = self.validate_action(action)
+        out = np.empty((self._n_info + n_tail, n))
+        status = self._run_kernel(a, out)
+        if status == STATUS_BAD_ACTION:
+            self.validate_action(action)  # raises ValueError naming the component
+        return out, status
 
     def _kernel_step(self, action: Any) -> np.ndarray:
         raise NotImplementedError

@@ -45,7 +45,6 @@ from numba.extending import register_jitable
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
 from vsa_gym.envs.task import (
-    STATUS_BAD_ACTION,
     STATUS_BAD_STATE,
     CompiledStepTask,
     ControlMode,
@@ -369,10 +368,8 @@ class VsaUT2Task(CompiledStepTask):
     n_signals: ClassVar[int] = 0
 
     def _use_kernel(self) -> bool:
-        owner = self._kernel_owner
-        cls = type(self)
-        return (owner is not None and not self._parallel and cls._advance is owner._advance
-                and cls._observe is owner._observe)
+        # the compiled step also implements _observe; parallel_rows runs the numpy-level step (threaded core)
+        return super()._use_kernel() and not self._parallel and type(self)._observe is self._kernel_owner._observe
 
     def _failure_rates(self) -> np.ndarray:
         """Per-row charge per remaining step of a failed episode (``K_RATE``; tasks that charge one override)."""
@@ -401,15 +398,7 @@ class VsaUT2Task(CompiledStepTask):
     def _kernel_step(self, action: Any) -> np.ndarray:
         """The compiled :meth:`BatchedTask.step` up to ``info``; returns ``out`` ``(n_out, n)`` (``step_info``,
         ``reward_<term>``, then the ``OUT_*`` rows)."""
-        n = self.n
-        if isinstance(action, np.ndarray) and action.shape == (n, 2) and action.dtype.kind == "f":
-            a = action.astype(np.float64, copy=False)  # clipped and checked for finiteness in the compiled step
-        else:
-            a, _ = self.validate_action(action)
-        out = np.empty((self._n_info + OUT_NEW_SEGMENT + self.n_signals, n))
-        status = self._run_kernel(a, out)
-        if status == STATUS_BAD_ACTION:
-            self.validate_action(action)  # raises ValueError naming the component; nothing was changed
+        out, status = self._compiled_call(action, OUT_NEW_SEGMENT + self.n_signals)
         if status == STATUS_BAD_STATE:
             raise FloatingPointError("vsaUT-II integration produced a non-finite state; reduce dt")
         s = self.s
@@ -643,8 +632,4 @@ def _common_obs_of(x: np.ndarray, P: np.ndarray, C: np.ndarray, drv: np.ndarray,
                     drv[:, D_I2T:D_I2T + 2], C[:, K_LIM1:K_LIM2 + 1], P, C[:, K_KB], C[:, K_RATIO], i, o)
 
 
-@register_jitable
-def _clip_obs_row(o: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, i: int) -> None:
-    """``BatchedTask._clip_obs`` of one row: clipped in float64, stored as float32 into ``obs[i]``."""
-    for k in range(o.shape[0]):
-        obs[i, k] = min(max(o[k], lo[k]), hi[k])
+

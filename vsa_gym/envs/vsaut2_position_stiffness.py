@@ -7,14 +7,18 @@ from typing import Any
 import numba
 import numpy as np
 
-from vsa_gym.envs.elpas_common import _actions_finite
 from vsa_gym.envs.signals import SegmentReference, _segment_value
 from vsa_gym.envs.task import (
     OUT_CLIPPED,
     OUT_FAIL,
     OUT_REWARD,
+    STATUS_BAD_ACTION,
+    STATUS_BAD_STATE,
     ObsChannel,
     TaskEnv,
+    _actions_finite,
+    _clip_obs_row,
+    failure_charge,
     failure_horizon,
     horizon_from_time_limit,
     indent,
@@ -22,6 +26,7 @@ from vsa_gym.envs.task import (
 )
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.envs.vsaut2_common import (
+    _R,
     C_DT,
     ENERGY_INFO,
     K_FLOOR,
@@ -30,10 +35,7 @@ from vsa_gym.envs.vsaut2_common import (
     MARGIN_INFO,
     N_COMMON_OBS,
     OUT_NEW_SEGMENT,
-    STATUS_BAD_ACTION,
-    STATUS_BAD_STATE,
     VsaUT2Task,
-    _clip_obs_row,
     _common_obs_of,
     _drive_all,
     _energy_row,
@@ -169,8 +171,8 @@ class PositionStiffnessTask(VsaUT2Task):
         self.s["steps"] += 1
         failure = np.zeros(self.n)
         if fail.any():  # the charge for the steps not taken (the rate is only computed when needed)
-            remaining = np.maximum(self.episode_steps - self.s["steps"], 0)
-            failure = np.where(fail, -(self.failure_penalty + self.failure_rate() * remaining), 0.0)
+            failure = np.where(fail, failure_charge(self.failure_penalty, self.failure_rate(), self.s["steps"],
+                                                    self.episode_steps), 0.0)
         terms = {
             "position": -self.w["position"] * (e_r / self.position_scale) ** 2,
             "stiffness": -self.w["stiffness"] * (e_k / self.log_stiffness_scale) ** 2,
@@ -249,11 +251,10 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
         charged = _energy_row(i, e_m, drv, cfg, out)
         fail = _margins_into(x, drv, C, i, out, 6)
         steps[i] += 1
-        remaining = max(int(w[6]) - steps[i], 0)
         r_pos = -w[0] * (e_r / w[1]) ** 2
         r_stf = -w[2] * (e_k / w[3]) ** 2
         r_en = -w[4] * charged
-        r_fail = -(w[5] + C[i, K_RATE] * remaining) if fail else 0.0
+        r_fail = failure_charge(w[5], C[i, K_RATE], steps[i], w[6]) if fail else 0.0
         out[10, i], out[11, i], out[12, i] = e_r, e_k, tau[i]
         out[13, i], out[14, i], out[15, i], out[16, i] = r_pos, r_stf, r_en, r_fail
         out[m + OUT_REWARD, i] = 0.0 + r_pos + r_stf + r_en + r_fail  # BatchedTask.step's sum, in term order
@@ -273,7 +274,6 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
     return flagged
 
 
-_R = STATE["r"]
 PositionStiffnessTask._kernel_owner = PositionStiffnessTask
 PositionStiffnessTask._kernel = (_position_stiffness_rows,)
 

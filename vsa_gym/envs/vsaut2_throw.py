@@ -7,28 +7,36 @@ from typing import Any
 import numba
 import numpy as np
 
-from vsa_gym.envs.elpas_common import _actions_finite
-from vsa_gym.envs.task import OUT_CLIPPED, OUT_FAIL, OUT_REWARD, ObsChannel, TaskEnv, indent, obs_table
+from vsa_gym.envs.task import (
+    OUT_CLIPPED,
+    OUT_FAIL,
+    OUT_REWARD,
+    STATUS_BAD_ACTION,
+    STATUS_BAD_STATE,
+    ObsChannel,
+    TaskEnv,
+    _actions_finite,
+    _clip_obs_row,
+    indent,
+    obs_table,
+)
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.envs.vsaut2_common import (
+    _R,
+    _R_DOT,
     C_DT,
     D_E_CH,
     ENERGY_INFO,
     K_FLOOR,
     MARGIN_INFO,
     N_COMMON_OBS,
-    STATUS_BAD_ACTION,
-    STATUS_BAD_STATE,
     VsaUT2Task,
-    _clip_obs_row,
     _common_obs_of,
     _drive_all,
     _energy_row,
     _margins_into,
 )
 from vsa_gym.vsaut2.model import STATE
-
-_R, _R_DOT = STATE["r"], STATE["r_dot"]
 
 
 class ThrowTask(VsaUT2Task):

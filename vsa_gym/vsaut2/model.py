@@ -672,7 +672,6 @@ def _all_finite(a: np.ndarray) -> bool:
 PARALLEL_MIN_ROWS = 64
 
 
-
 def _parallel_twin(f: Any) -> Any:
     """``f`` under the name ``<name>_parallel``, for its ``parallel=True`` compilation.
 
