@@ -150,3 +150,13 @@ def test_serial_and_parallel_kernels_have_their_own_cache_entries():
                              (core._etd_compiled, core._etd_compiled_parallel)):
         assert serial.py_func.__qualname__ != parallel.py_func.__qualname__
         assert serial.py_func.__code__ is parallel.py_func.__code__  # the same kernel, compiled twice
+
+
+def test_core_modes_command_gives_the_poles_the_integrators_are_chosen_against():
+    """benchmarks.core_modes reproduces the poles quoted in the VsaUT2Model docstring."""
+    from benchmarks.core_modes import modes
+
+    ev = modes(0.002)
+    assert ev.real[0] == pytest.approx(-8.95e3, rel=0.01) and ev.real[1] == pytest.approx(-3.62e3, rel=0.01)
+    pair = ev[np.argmax(ev.imag)]
+    assert pair.real == pytest.approx(-209, rel=0.02) and pair.imag == pytest.approx(3566, rel=0.01)

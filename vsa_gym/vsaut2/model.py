@@ -170,14 +170,15 @@ class VsaUT2Model:
     (h = 0.143 ms), 10/7 fewer right-hand-side evaluations.  The gain stops there because what sets
     the step at 7 per ms is the frame end-stop impact (penalty contact ``K_q2``, ``D_q2``, 2 mrad
     smoothing; a -3.9e3 1/s pole while pressed) on the saturating-command run, not a current pole.
-    The linearised poles at typical states are the pivot-current pole (-9.0e3 1/s), the
-    frame-current pole (-3.6e3) and the belt/frame mode (-209 +- 3566j 1/s at q1 = 2 mm, 570 Hz,
-    down to -229 +- 862j at 40 mm); with the spring-travel stop engaged the pivot gearbox's
-    zero-speed blend adds a real pole of -6.6e4 (q1 = 30 mm) to -5.1e6 1/s (2 mm) that no explicit
-    step resolves.  Plain RK4 at 7 per ms keeps the states within 3.8e-4 of Radau too, but not the
-    energy channels (1.6e-3 on the step run: the copper loss needs the exact current decay).  Both
-    integrators stay within the 1e-3 Radau bound (tests/vsaut2/test_integrator.py); they differ
-    from each other by up to that bound, so ``"rk4"`` stays the default and nothing downstream
+    The linearised poles at rest (``python -m benchmarks.core_modes``) are the pivot-current pole
+    (-9.0e3 1/s), the frame-current pole (-3.6e3) and the belt/frame mode (-209 +- 3566j 1/s at
+    q1 = 2 mm, 568 Hz, down to -229 +- 862j at 40 mm); with the spring-travel stop engaged the pivot
+    gearbox's zero-speed blend adds a real pole of -6.6e4 (q1 = 30 mm) to -5.1e6 1/s (2 mm) that no
+    explicit step resolves (a state that command does not set up: measured once by hand).  Plain RK4
+    at 7 per ms keeps the states within 3.8e-4 of Radau too, but not the energy channels (1.6e-3 on
+    the step run: the copper loss needs the exact current decay).  Both integrators stay within the
+    1e-3 Radau bound (tests/vsaut2/test_integrator.py); they differ from each other by up to that
+    bound, so ``"rk4"`` stays the default and nothing downstream
     shifts unless asked.
     """
 
