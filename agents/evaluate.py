@@ -67,6 +67,23 @@ def split_reward_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> tuple[dic
             {k: v for k, v in env_kwargs.items() if k in keys})
 
 
+def scoring_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any], reward: str = "default",
+                       extra: Mapping[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``(env_kwargs to score a policy with, the reward-only training arguments dropped)``.
+
+    ``reward="default"`` removes the reward-only arguments of :data:`REWARD_KWARGS` from the training
+    ``env_kwargs`` (the environment's default reward), ``"training"`` keeps them; ``extra`` applies last in
+    both cases.  Used by :func:`evaluate_agent` and by the periodic evaluation of :func:`agents.train.train`.
+    """
+    if reward not in REWARD_MODES:
+        raise ValueError(f"reward must be one of {REWARD_MODES}, got {reward!r}")
+    kw, dropped = dict(env_kwargs), {}
+    if reward == "default" and kw:
+        kw, dropped = split_reward_kwargs(env_id, kw)
+    kw.update(extra or {})
+    return kw, dropped
+
+
 class SB3Policy:
     """A trained SB3 model as a baselines policy: ``reset()``, ``policy(obs) -> action`` (batched or single).
 
@@ -167,13 +184,7 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     from baselines.metrics import evaluate_policy
 
     policy = load_agent(model_path, algo, vecnormalize)
-    if reward not in REWARD_MODES:
-        raise ValueError(f"reward must be one of {REWARD_MODES}, got {reward!r}")
-    kw = training_env_kwargs(model_path, env_id)
-    dropped: dict[str, Any] = {}
-    if reward == "default":
-        kw, dropped = split_reward_kwargs(env_id, kw)
-    kw.update(env_kwargs or {})
+    kw, dropped = scoring_env_kwargs(env_id, training_env_kwargs(model_path, env_id), reward, env_kwargs)
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
     seeds = [seed_base + k for k in range(int(episodes))]
     wrappers = training_vec_env_wrapper(model_path, env_id)

@@ -11,7 +11,10 @@ and, with ``--episodes K``, :func:`agents.evaluate.evaluate_agent` on the held-o
 Without ``--address`` a local Ray instance is started with ``--num-cpus`` workers (default 2)
 and shut down at the end.  On a cluster the log folder must be on storage all nodes share.
 A finished run of the same (env, algo, seed, timesteps) in the log folder is reused, not
-retrained (``--retrain`` forces training).  The JSON lists one record per trial: the
+retrained (``--retrain`` forces training).  ``--select best`` evaluates each run's
+``best_model.zip`` (the checkpoint with the best periodic evaluation on the validation seeds, see
+:mod:`agents.train`) instead of its final model; a run is then reused only if it was trained with
+the same periodic-evaluation settings.  The JSON lists one record per trial: the
 ``train_info`` (timesteps, CPU and wall seconds, paths) and the ``metrics``.
 """
 
@@ -27,21 +30,69 @@ from typing import Any
 
 import yaml
 
-from agents.common import METRIC_SEED_BASE, read_json, run_dirs, write_json
+from agents.common import METRIC_SEED_BASE, env_name, read_json, run_dirs, write_json
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
 
+SELECT = ("final", "best")
+"""Which model of a run a trial evaluates: the final one, or ``best_model.zip`` of the periodic evaluation."""
+
+
+def _evaluation_args(trial: Mapping[str, Any]) -> dict[str, Any]:
+    """The periodic-evaluation settings of a trial, as :func:`agents.train.train` writes them to ``args.yml``."""
+    return {"eval_freq": int(trial.get("eval_freq", 25_000)), "eval_episodes": int(trial.get("eval_episodes", 4)),
+            "eval_reward": trial.get("eval_reward", "default"), "eval_kwargs": dict(trial.get("eval_kwargs") or {})}
+
+
 def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, seed: int,
-                 timesteps: int | None) -> dict[str, Any] | None:
-    """``train_info`` of the newest finished run of (env, algo, seed) with ``timesteps`` steps, if any."""
+                 timesteps: int | None, evaluation: Mapping[str, Any] | None = None) -> dict[str, Any] | None:
+    """``train_info`` of the newest finished run of (env, algo, seed) with ``timesteps`` steps, if any.
+
+    ``evaluation`` (periodic-evaluation settings, :func:`_evaluation_args`): the run must also have been
+    trained with these and hold a ``best_model.zip``.
+    """
     for d in reversed(run_dirs(log_folder, algo, env_id)):
         info = read_json(d / "train_info.json")
-        if (info and info.get("status") == "finished" and int(info.get("seed", -1)) == seed
+        if not (info and info.get("status") == "finished" and int(info.get("seed", -1)) == seed
                 and (timesteps is None or int(info.get("num_timesteps", -1)) == int(timesteps))
                 and Path(info["model"]).exists()):
-            return info
+            continue
+        if evaluation is not None:
+            args_file = d / env_name(env_id) / "args.yml"
+            args = (yaml.safe_load(args_file.read_text()) or {}) if args_file.exists() else {}
+            if ({k: args.get(k, {} if k == "eval_kwargs" else None) for k in evaluation} != dict(evaluation)
+                    or not (d / "best_model.zip").exists()):
+                continue
+        return info
     return None
+
+
+def trial_model(trial: Mapping[str, Any], info: Mapping[str, Any]) -> str:
+    """The model a trial evaluates: the run's final model, or its ``best_model.zip`` (``select: best``)."""
+    select = trial.get("select", "final")
+    if select not in SELECT:
+        raise ValueError(f"select must be one of {SELECT}, got {select!r}")
+    if select == "final":
+        return str(info["model"])
+    best = Path(info["save_path"]) / "best_model.zip"
+    if not best.exists():
+        raise FileNotFoundError(f"{best} does not exist: select 'best' needs a run trained with eval_freq > 0")
+    return str(best)
+
+
+def best_step(save_path: str | os.PathLike[str]) -> int | None:
+    """Timestep of the evaluation that ``best_model.zip`` holds (the first highest mean return in
+    ``evaluations.npz``, as SB3's ``EvalCallback`` keeps it); ``None`` without periodic evaluations."""
+    import numpy as np
+
+    f = Path(save_path) / "evaluations.npz"
+    if not f.exists():
+        return None
+    with np.load(f) as ev:
+        if ev["timesteps"].size == 0:
+            return None
+        return int(ev["timesteps"][int(np.argmax(ev["results"].mean(axis=1)))])
 
 
 def run_trial(trial: Mapping[str, Any]) -> dict[str, Any]:
@@ -50,25 +101,32 @@ def run_trial(trial: Mapping[str, Any]) -> dict[str, Any]:
     from agents.train import train
 
     t = dict(trial)
+    evaluation = _evaluation_args(t) if t.get("select", "final") == "best" else None
+    if evaluation is not None and evaluation["eval_freq"] <= 0:
+        raise ValueError("select 'best' needs the periodic evaluation: eval_freq > 0")
     info = None if t.get("retrain") else finished_run(t["log_folder"], t["env_id"], t["algo"], t["seed"],
-                                                      t.get("timesteps"))
+                                                      t.get("timesteps"), evaluation)
     reused = info is not None
     if info is None:
         info = train(t["env_id"], t["algo"], t.get("timesteps"), t["seed"], t["log_folder"],
                      hyperparams=t.get("hyperparams"), params=t.get("params") or None,
                      save_freq=t.get("save_freq", 50_000),
-                     eval_freq=t.get("eval_freq", 25_000), eval_episodes=t.get("eval_episodes", 4),
-                     n_eval_envs=t.get("n_eval_envs", 4), tensorboard=t.get("tensorboard", True),
-                     progress_bar=False, num_threads=1)
-    out: dict[str, Any] = {"trial": t, "train_info": info, "reused": reused, "metrics": None,
+                     n_eval_envs=t.get("n_eval_envs"), tensorboard=t.get("tensorboard", True),
+                     progress_bar=False, num_threads=1, **_evaluation_args(t))
+    finished = info["status"] == "finished"
+    model = trial_model(t, info) if finished else None
+    out: dict[str, Any] = {"trial": t, "train_info": info, "reused": reused, "model": model,
+                           "selected_step": (best_step(info["save_path"]) if t.get("select", "final") == "best"
+                                             else info["num_timesteps"]), "metrics": None,
                            "worker_niceness": os.nice(0) if hasattr(os, "nice") else None}
-    if int(t.get("episodes", 0)) > 0 and info["status"] == "finished":
+    if int(t.get("episodes", 0)) > 0 and finished:
         base = int(t.get("seed_base", METRIC_SEED_BASE))
         steps = t.get("episode_steps")
-        cached = Path(info["save_path"]) / f"metrics_{int(t['episodes'])}ep_{base}_{steps or 'full'}.json"
+        tag = "" if t.get("select", "final") == "final" else "_best"
+        cached = Path(info["save_path"]) / f"metrics{tag}_{int(t['episodes'])}ep_{base}_{steps or 'full'}.json"
         metrics = read_json(cached) if reused else None  # a fresh training run is always evaluated
         if metrics is None:
-            metrics = evaluate_agent(info["model"], t["env_id"], int(t["episodes"]), base, episode_steps=steps)
+            metrics = evaluate_agent(model, t["env_id"], int(t["episodes"]), base, episode_steps=steps)
             write_json(cached, metrics)
         out["metrics"] = metrics
     return out
@@ -122,7 +180,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--hyperparams", default=None, help="rl-zoo3 YAML (default agents/hyperparams/ALGO.yml)")
     ap.add_argument("--episodes", type=int, default=10, help="metric episodes per trial (0: no evaluation)")
     ap.add_argument("--save-freq", type=int, default=50_000)
-    ap.add_argument("--eval-freq", type=int, default=25_000)
+    ap.add_argument("--eval-freq", type=int, default=25_000, help="periodic evaluation period in timesteps (0: off)")
+    ap.add_argument("--eval-episodes", type=int, default=4, help="validation episodes per periodic evaluation")
+    ap.add_argument("--eval-kwargs", type=yaml.safe_load, default=None, metavar="YAML",
+                    help='environment arguments of the periodic evaluation, e.g. "{failure_rate: 2.0}"')
+    ap.add_argument("--select", choices=SELECT, default="final",
+                    help="evaluate the final model or best_model.zip of the periodic evaluation")
     ap.add_argument("--address", default=None, help="Ray cluster address (default: a local instance)")
     ap.add_argument("--num-cpus", type=int, default=2, help="CPUs of the local Ray instance")
     ap.add_argument("--retrain", action="store_true", help="train even if a finished run exists")
@@ -133,7 +196,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     trials = make_trials(a.envs, a.algos, a.seeds, timesteps=a.timesteps, log_folder=str(a.log_folder),
                          params=_parse_params(a.params), hyperparams=a.hyperparams, episodes=a.episodes,
                          save_freq=a.save_freq,
-                         eval_freq=a.eval_freq, retrain=a.retrain)
+                         eval_freq=a.eval_freq, eval_episodes=a.eval_episodes, eval_kwargs=a.eval_kwargs,
+                         select=a.select, retrain=a.retrain)
     results = run_sweep(trials, a.address, a.num_cpus)
     if a.json:
         write_json(a.json, results)

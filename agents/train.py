@@ -24,7 +24,14 @@ episodes (seeded from the seed and the step count), and the random number stream
 from an uninterrupted run, so a resumed run is statistically, not bitwise, the same.
 
 Periodic evaluation (``--eval-freq``) runs ``--eval-episodes`` deterministic episodes on the
-held-out seeds ``EVAL_SEED_BASE + k``, the same at every evaluation, and keeps ``best_model.zip``.
+validation seeds ``EVAL_SEED_BASE + k``, the same at every evaluation, and keeps ``best_model.zip``
+(with ``best_model_vecnormalize.pkl``): the model of the evaluation with the highest mean return.
+That return is scored under the environment's **default** reward (``--eval-reward default``; the
+reward-only training arguments such as a higher ``w_energy`` are dropped, as in
+:mod:`agents.evaluate`) with the arguments of ``--eval-kwargs`` on top, e.g.
+``"{failure_rate: 2.0}"``: a failure then also costs every step it skips, so a checkpoint that ends
+validation episodes on a constraint cannot win by collecting less (negative) reward.  The metric
+seeds of :mod:`agents.evaluate` (``METRIC_SEED_BASE + k``) stay unseen by both training and selection.
 """
 
 from __future__ import annotations
@@ -102,7 +109,7 @@ def _boundary_checkpoint(save_path: Path, save_freq: int, off_policy: bool) -> A
 
 
 def _callbacks(save_path: Path, n_envs: int, eval_env: Any, eval_freq: int,
-               eval_episodes: int, extra: Sequence[Any]) -> list[Any]:
+               eval_episodes: int, extra: Sequence[Any], resume: bool = False) -> list[Any]:
     from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
 
     class SaveBestVecNormalize(BaseCallback):
@@ -115,12 +122,32 @@ def _callbacks(save_path: Path, n_envs: int, eval_env: Any, eval_freq: int,
             return True
 
     class HeldOutEval(EvalCallback):
-        """EvalCallback that reseeds the evaluation rows with the held-out seeds before every evaluation."""
+        """EvalCallback that reseeds the evaluation rows with the validation seeds before every evaluation,
+        continues the evaluation record of a resumed run and evaluates the final model too."""
+
+        def _init_callback(self) -> None:
+            super()._init_callback()
+            record = save_path / "evaluations.npz"
+            if resume and record.exists():  # keep the record (and the best score) of the earlier segments
+                with np.load(record) as ev:
+                    self.evaluations_timesteps = [int(t) for t in ev["timesteps"]]
+                    self.evaluations_results = [list(r) for r in ev["results"]]
+                    self.evaluations_length = [list(n) for n in ev["ep_lengths"]]
+                if self.evaluations_results:
+                    self.best_mean_reward = float(max(np.mean(r) for r in self.evaluations_results))
 
         def _on_step(self) -> bool:
             if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
                 self.eval_env.seed(EVAL_SEED_BASE)
             return super()._on_step()
+
+        def evaluate_final(self) -> None:
+            """One more evaluation at the end of training (unless the last one was at this step), so that
+            ``best_model.zip`` is the best of the periodic evaluations *and* the final model."""
+            if self.evaluations_timesteps and self.evaluations_timesteps[-1] == self.model.num_timesteps:
+                return
+            self.n_calls = (self.n_calls // self.eval_freq + 1) * self.eval_freq - 1
+            self.on_step()  # n_calls += 1 -> a multiple of eval_freq: evaluates now
 
     cbs: list[Any] = []
     if eval_env is not None and eval_freq > 0:
@@ -156,13 +183,17 @@ def _find_resume_dir(log_folder: Path, algo: str, env_id: str, seed: int) -> Pat
 def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: int = 0,
           log_folder: str | os.PathLike[str] = "logs", resume: bool | str | os.PathLike[str] = False,
           hyperparams: str | os.PathLike[str] | None = None, params: Mapping[str, Any] | None = None,
-          save_freq: int = 50_000, eval_freq: int = 25_000, eval_episodes: int = 4, n_eval_envs: int = 4,
+          save_freq: int = 50_000, eval_freq: int = 25_000, eval_episodes: int = 4, n_eval_envs: int | None = None,
           tensorboard: bool = True, progress_bar: bool = False, num_threads: int = 1, device: str = "cpu",
-          verbose: int = 0, callbacks: Sequence[Any] = ()) -> dict[str, Any]:
+          verbose: int = 0, callbacks: Sequence[Any] = (), eval_reward: str = "default",
+          eval_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Train (or resume) one agent; returns the run summary (also in ``SAVE_PATH/train_info.json``).
 
     ``resume``: ``True`` continues the newest run of (env, algo, seed) under ``log_folder``, a path
     continues that run directory.  ``callbacks`` are extra SB3 callbacks (tests use them to interrupt).
+    Periodic evaluation (``eval_freq`` > 0): ``eval_episodes`` episodes on ``n_eval_envs`` rows (default:
+    one row per episode), scored under ``eval_reward`` (``"default"`` or ``"training"``) with
+    ``eval_kwargs`` applied last (module docstring).
     """
     import torch
 
@@ -207,7 +238,8 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
         (params_path / "config.yml").write_text(yaml.dump(dict(sorted(raw.items()))))
         (params_path / "args.yml").write_text(yaml.dump({
             "algo": algo, "env": env_id, "seed": seed, "n_timesteps": total, "hyperparams": str(hyperparams or ""),
-            "save_freq": save_freq, "eval_freq": eval_freq, "eval_episodes": eval_episodes}))
+            "save_freq": save_freq, "eval_freq": eval_freq, "eval_episodes": eval_episodes,
+            "eval_reward": eval_reward, "eval_kwargs": dict(eval_kwargs or {})}))
         (params_path / "command.txt").write_text(" ".join(getattr(sys, "orig_argv", sys.argv)))
 
     env_seed = seed
@@ -219,8 +251,11 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
                          vec_env_wrapper=hp["vec_env_wrapper"])
     eval_env = None
     if eval_freq > 0:
-        eval_env = make_train_env(env_id, n_eval_envs, EVAL_SEED_BASE, hp["env_kwargs"], hp["normalize"],
-                                  training=False, vec_env_wrapper=hp["vec_env_wrapper"])
+        from agents.evaluate import scoring_env_kwargs
+
+        eval_env_kwargs = scoring_env_kwargs(env_id, hp["env_kwargs"] or {}, eval_reward, eval_kwargs)[0]
+        eval_env = make_train_env(env_id, int(n_eval_envs or eval_episodes), EVAL_SEED_BASE, eval_env_kwargs,
+                                  hp["normalize"], training=False, vec_env_wrapper=hp["vec_env_wrapper"])
     tb = str(save_path / "tb") if tensorboard else None
     if resume:
         model = cls.load(str(ckpt), env=env, device=device, tensorboard_log=tb)
@@ -231,7 +266,7 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
         model = cls(env=env, seed=seed, device=device, tensorboard_log=tb, verbose=verbose, **hp["model"])
 
     ckpt_cb = _boundary_checkpoint(save_path, save_freq, off_policy)
-    cbs = [ckpt_cb, *_callbacks(save_path, n_envs, eval_env, eval_freq, eval_episodes, callbacks)]
+    cbs = [ckpt_cb, *_callbacks(save_path, n_envs, eval_env, eval_freq, eval_episodes, callbacks, bool(resume))]
     status = "finished"
     remaining = max(total - int(model.num_timesteps), 0)
     previous = None
@@ -248,6 +283,9 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
         if remaining > 0:
             model.learn(remaining, callback=cbs, reset_num_timesteps=not resume, tb_log_name=algo.upper(),
                         progress_bar=progress_bar)
+            for cb in cbs:
+                if hasattr(cb, "evaluate_final"):
+                    cb.evaluate_final()
     except _GracefulStopError:
         status = "interrupted"
         print(f"interrupted at {model.num_timesteps} timesteps; checkpoint saved, continue with --resume",
@@ -334,7 +372,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--save-freq", type=int, default=50_000, help="checkpoint period in timesteps (<= 0: off)")
     ap.add_argument("--eval-freq", type=int, default=25_000, help="evaluation period in timesteps (<= 0: off)")
     ap.add_argument("--eval-episodes", type=int, default=4)
-    ap.add_argument("--n-eval-envs", type=int, default=4)
+    ap.add_argument("--n-eval-envs", type=int, default=None,
+                    help="rows of the evaluation env (default: one per episode)")
+    ap.add_argument("--eval-reward", choices=("default", "training"), default="default",
+                    help="reward the periodic evaluation (best_model.zip) is scored with")
+    ap.add_argument("--eval-kwargs", type=yaml.safe_load, default=None, metavar="YAML",
+                    help='environment arguments of the evaluation env on top, e.g. "{failure_rate: 2.0}"')
     ap.add_argument("--no-tensorboard", action="store_true")
     ap.add_argument("--no-progress-bar", action="store_true")
     ap.add_argument("--num-threads", type=int, default=1, help="torch threads (<= 0: torch's default)")
@@ -346,7 +389,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         params = with_residual(params, a.residual)
     info = train(a.env, a.algo, a.timesteps, a.seed, a.log_folder, a.resume, a.hyperparams, params,
                  a.save_freq, a.eval_freq, a.eval_episodes, a.n_eval_envs, not a.no_tensorboard,
-                 not a.no_progress_bar, a.num_threads, a.device, a.verbose)
+                 not a.no_progress_bar, a.num_threads, a.device, a.verbose, eval_reward=a.eval_reward,
+                 eval_kwargs=a.eval_kwargs)
     print(f"{info['status']}: {info['num_timesteps']} timesteps, {info['cpu_s'] / 60:.2f} CPU min -> "
           f"{info['save_path']}")
     return 0 if info["status"] == "finished" else 130

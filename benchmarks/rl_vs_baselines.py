@@ -202,6 +202,14 @@ def update_doc(doc: Path, text: str) -> None:
 
 
 RESIDUAL_HYPERPARAMS = REPO / "agents" / "hyperparams" / "ppo_residual.yml"
+SELECTION_KWARGS: dict[str, dict[str, Any]] = {
+    "vsa_gym/ELPAS-ForceTracking-v0": {"failure_rate": 2.0},
+    "vsa_gym/ELPAS-QuarterCar-v0": {"failure_rate": 1.0},
+}
+"""Arguments of the periodic-evaluation env (``--select best``): on the eLPAS tasks a failure also costs each
+step it skips (about twice / three times what the zero action pays per step, see the envs' docstrings), so a
+checkpoint that ends validation episodes early cannot be chosen for collecting less negative reward.  The
+vsaUT-II position task charges that by default.  Training keeps the environments' defaults."""
 
 
 def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = None) -> dict[str, Any]:
@@ -235,11 +243,12 @@ def mark_stale(trials: list[dict[str, Any]]) -> list[str]:
     import yaml
 
     from agents.common import env_name, read_hyperparams
-    from agents.sweep import finished_run
+    from agents.sweep import _evaluation_args, finished_run
 
     stale = []
     for t in trials:
-        info = finished_run(t["log_folder"], t["env_id"], t["algo"], t["seed"], t.get("timesteps"))
+        evaluation = _evaluation_args(t) if t.get("select", "final") == "best" else None
+        info = finished_run(t["log_folder"], t["env_id"], t["algo"], t["seed"], t.get("timesteps"), evaluation)
         if info is None:
             continue
         cfg = Path(info["save_path"]) / env_name(t["env_id"]) / "config.yml"
@@ -289,7 +298,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--docs", default=str(REPO / "docs"))
     ap.add_argument("--num-cpus", type=int, default=2)
     ap.add_argument("--address", default=None, help="Ray cluster (default: local instance)")
-    ap.add_argument("--eval-freq", type=int, default=25_000)
+    ap.add_argument("--eval-freq", type=int, default=25_000,
+                    help="periodic evaluation on the validation seeds every N timesteps (0: off)")
+    ap.add_argument("--eval-episodes", type=int, default=8, help="validation episodes per periodic evaluation")
+    ap.add_argument("--select", choices=("final", "best"), default="final",
+                    help="evaluate each agent's final model, or the best model of the periodic evaluation "
+                         "(validation return under the default reward, failures charged per skipped step)")
     ap.add_argument("--skyhook-gains", nargs="*", type=float, default=[], metavar="C_SKY",
                     help="also evaluate the quarter-car skyhook at these damping gains (N s/m; default gain 1000)")
     ap.add_argument("--reuse-baselines", action="store_true",
@@ -314,15 +328,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     steps_for = {e: a.timesteps for e in a.envs} | _per_env(a.timesteps_for, a.envs)
     res_envs = residual_envs() if a.residual else {}
     trials: list[dict[str, Any]] = []
+    common = {"episodes": a.episodes, "save_freq": 50_000, "eval_freq": a.eval_freq,
+              "eval_episodes": a.eval_episodes, "select": a.select}
+    if a.select == "best" and a.eval_freq <= 0:
+        raise SystemExit("--select best needs the periodic evaluation: --eval-freq > 0")
     for env_id in a.envs:  # residual trials first: they are the slow ones (baseline in the loop)
         if env_id in res_envs:
             trials += make_trials([env_id], [a.algo], a.seeds, timesteps=steps_for[env_id],
                                   log_folder=str(Path(a.log_folder) / "residual"),
                                   hyperparams=str(RESIDUAL_HYPERPARAMS),
-                                  episodes=a.episodes, save_freq=50_000, eval_freq=a.eval_freq, variant="residual")
+                                  variant="residual", eval_kwargs=SELECTION_KWARGS.get(env_id, {}), **common)
     for env_id in a.envs:
         trials += make_trials([env_id], [a.algo], a.seeds, timesteps=steps_for[env_id], log_folder=a.log_folder,
-                              episodes=a.episodes, save_freq=50_000, eval_freq=a.eval_freq, variant="pure")
+                              variant="pure", eval_kwargs=SELECTION_KWARGS.get(env_id, {}), **common)
     for d in mark_stale(trials):
         print(f"note: {d} was trained with other hyperparameters; training again", file=sys.stderr)
     base_all: dict[str, dict[str, list[dict[str, Any]]]] = {}
@@ -340,7 +358,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     from agents.evaluate import evaluate_agent, split_reward_kwargs, training_env_kwargs
 
     for r in swept:  # metrics cached before returns were taken under the default reward: evaluate again
-        m, model, env_id = r["metrics"], r["train_info"]["model"], r["trial"]["env_id"]
+        m, model, env_id = r["metrics"], r["model"], r["trial"]["env_id"]
         if (m is not None and m.get("agent", {}).get("reward") != "default"
                 and split_reward_kwargs(env_id, training_env_kwargs(model, env_id))[1]):
             r["metrics"] = evaluate_agent(model, env_id, a.episodes)
@@ -348,19 +366,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     command = "python -m benchmarks.rl_vs_baselines " + " ".join(argv if argv is not None else sys.argv[1:])
     train_cpu = sum(r["train_info"]["cpu_s"] for r in swept) / 60.0
     budget = ", ".join(f"{e.split('/')[-1]} {steps_for[e]}" for e in a.envs)
+    models = ("final models" if a.select == "final" else
+              f"each agent's best_model.zip: the checkpoint with the highest mean return on {a.eval_episodes} "
+              f"validation episodes (seeds 1000000 + k), evaluated every {a.eval_freq} steps under the default "
+              f"reward with a failure charged for every step it skips")
     sections = [f"Made by `{command}` ({a.algo.upper()}, timesteps per agent: {budget}; seeds {a.seeds}; "
-                f"{a.episodes} held-out evaluation episodes of the full length per policy; returns under each "
-                f"environment's default reward). Training CPU time of "
+                f"{models}; {a.episodes} held-out test episodes (seeds 2000000 + k) of the full length per policy; "
+                f"returns under each environment's default reward). Training CPU time of "
                 f"all agents: {train_cpu:.1f} min (sum over the trials, including reused runs); wall time of the "
                 f"command: {wall_min:.1f} min.\n"]
     record: dict[str, Any] = {"command": command, "algo": a.algo, "timesteps": steps_for, "seeds": a.seeds,
                               "episodes": a.episodes, "train_cpu_min": train_cpu, "wall_min": wall_min,
+                              "select": a.select, "eval_freq": a.eval_freq, "eval_episodes": a.eval_episodes,
+                              "selection_kwargs": SELECTION_KWARGS,
                               "envs": {}, "baseline_cache": cache}
     for env_id in a.envs:
         agents: dict[str, list[dict[str, Any]]] = {}
         for variant in ("pure", "residual"):
             rows = [{"seed": r["train_info"]["seed"], "cpu_min": r["train_info"]["cpu_s"] / 60.0,
-                     "wall_min": r["train_info"]["wall_s"] / 60.0, "model": r["train_info"]["model"],
+                     "wall_min": r["train_info"]["wall_s"] / 60.0, "model": r["model"],
+                     "selected_step": r["selected_step"],
                      "reused": r["reused"], "metrics": {k: v for k, v in r["metrics"].items() if k != "agent"}}
                     for r in swept if r["trial"]["env_id"] == env_id and r["trial"]["variant"] == variant]
             if rows:
@@ -374,7 +399,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         base = base_all[env_id]
         short = env_id.split("/")[1]
         pareto_plot(env_id, agents, base, docs / "img" / f"pareto_{short}.png")
-        sections.append(f"#### {env_id}\n\n{table(env_id, agents, base)}\n\n![pareto](img/pareto_{short}.png)\n")
+        chosen = "".join(f"\n\n{name}: checkpoints chosen at "
+                         + ", ".join(f"{r['selected_step']} (seed {r['seed']})" for r in rows) + " steps."
+                         for name, rows in agents.items()) if a.select == "best" else ""
+        sections.append(f"#### {env_id}\n\n{table(env_id, agents, base)}{chosen}\n\n"
+                        f"![pareto](img/pareto_{short}.png)\n")
         record["envs"][env_id] = {"agents": agents, "baselines": base}
     write_json(results_path, record)
     update_doc(docs / "agents.md", "\n".join(sections))

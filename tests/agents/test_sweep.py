@@ -34,3 +34,28 @@ def test_two_trial_sweep_on_local_ray(tmp_path: Path) -> None:
     assert again["reused"] and again["train_info"]["save_path"] == results[0]["train_info"]["save_path"]
     assert again["metrics"] == results[0]["metrics"]
     assert finished_run(tmp_path, FORCE, "ppo", 7, 256) is None
+
+
+def test_select_best_evaluates_best_model_and_reuses_only_matching_runs(tmp_path: Path) -> None:
+    import pytest
+
+    base = dict(timesteps=512, log_folder=str(tmp_path), params=tiny("ppo"), episodes=1, episode_steps=40,
+                save_freq=0, eval_freq=256, eval_episodes=2, tensorboard=False)
+    trial = make_trials([FORCE], ["ppo"], [0], select="best", **base)[0]
+    first = run_trial(trial)
+    save = Path(first["train_info"]["save_path"])
+    assert first["model"] == str(save / "best_model.zip") and not first["reused"]
+    assert first["selected_step"] in (256, 512)
+    assert first["metrics"]["agent"]["model"] == first["model"]
+    assert run_trial(trial)["reused"]
+    # other evaluation settings: the run's best_model.zip was chosen by other rules, so it is trained again
+    other = make_trials([FORCE], ["ppo"], [0], select="best", **{**base, "eval_episodes": 3})[0]
+    assert finished_run(tmp_path, FORCE, "ppo", 0, 512, {"eval_freq": 256, "eval_episodes": 3,
+                                                         "eval_reward": "default", "eval_kwargs": {}}) is None
+    assert not run_trial(other)["reused"]
+    # the final model is still there to select, and a run without periodic evaluation has no best model
+    final = run_trial(make_trials([FORCE], ["ppo"], [0], select="final", **base)[0])
+    assert final["reused"] and final["model"] == final["train_info"]["model"]
+    plain = run_trial(make_trials([FORCE], ["ppo"], [2], select="final", **{**base, "eval_freq": 0})[0])
+    with pytest.raises(ValueError, match="eval_freq > 0"):
+        run_trial({**plain["trial"], "select": "best", "eval_freq": 0})

@@ -175,3 +175,31 @@ def test_resume_after_crash_and_interrupt(tmp_path: Path) -> None:
 def test_resume_needs_a_run(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError):
         train(FORCE, "sac", 100, seed=9, log_folder=tmp_path, resume=True)
+
+
+def test_periodic_evaluation_scores_the_default_reward_and_the_final_model(tmp_path: Path) -> None:
+    """best_model.zip is chosen on validation returns under the environment's default reward (plus the
+    evaluation kwargs), the final model is evaluated too, and a resumed run keeps the earlier record."""
+    from agents.common import EVAL_SEED_BASE
+    from agents.sweep import best_step
+
+    params = tiny("ppo", env_kwargs={"max_episode_steps": EPISODE, "w_energy": 50.0})
+    kw = dict(log_folder=tmp_path, params=params, save_freq=256, eval_freq=300, eval_episodes=2,
+              eval_kwargs={"failure_rate": 2.0})
+    info = train(FORCE, "ppo", 512, seed=1, **kw)
+    save = Path(info["save_path"])
+    ev = np.load(save / "evaluations.npz")
+    assert list(ev["timesteps"]) == [300, 512]  # periodic at 300, then the final model at 512
+    # the final evaluation is the final model's return on the validation seeds, under the default reward
+    model = save / f"{env_name(FORCE)}.zip"
+    scored = evaluate_agent(model, FORCE, 2, EVAL_SEED_BASE, episode_steps=EPISODE,
+                            env_kwargs={"failure_rate": 2.0})
+    assert ev["results"][-1].mean() == pytest.approx(scored["return"], rel=1e-5)
+    trained_for = evaluate_agent(model, FORCE, 2, EVAL_SEED_BASE, episode_steps=EPISODE, reward="training")
+    assert abs(trained_for["return"] - scored["return"]) > 1.0  # w_energy = 50 would have scored differently
+    assert best_step(save) == int(ev["timesteps"][np.argmax(ev["results"].mean(axis=1))])
+
+    info = train(FORCE, "ppo", 1024, seed=1, resume=True, **kw)
+    ev2 = np.load(save / "evaluations.npz")
+    assert list(ev2["timesteps"][:2]) == [300, 512] and ev2["timesteps"][-1] == 1024
+    np.testing.assert_array_equal(ev2["results"][:2], ev["results"])
