@@ -42,16 +42,21 @@ SELECT = ("final", "best")
 def _evaluation_args(trial: Mapping[str, Any]) -> dict[str, Any]:
     """The periodic-evaluation settings of a trial, as :func:`agents.train.train` writes them to ``args.yml``."""
     return {"eval_freq": int(trial.get("eval_freq", 25_000)), "eval_episodes": int(trial.get("eval_episodes", 4)),
-            "eval_reward": trial.get("eval_reward", "default"), "eval_kwargs": dict(trial.get("eval_kwargs") or {})}
+            "eval_reward": trial.get("eval_reward", "training"), "eval_kwargs": dict(trial.get("eval_kwargs") or {})}
 
 
 def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, seed: int,
                  timesteps: int | None, evaluation: Mapping[str, Any] | None = None) -> dict[str, Any] | None:
     """``train_info`` of the newest finished run of (env, algo, seed) with ``timesteps`` steps, if any.
 
-    ``evaluation`` (periodic-evaluation settings, :func:`_evaluation_args`): the run must also have been
-    trained with these and hold a ``best_model.zip``.
+    ``evaluation`` (periodic-evaluation settings, :func:`_evaluation_args`): the run must also hold a
+    ``best_model.zip`` chosen by the same rules: the same period and number of episodes, and the same
+    evaluation environment (its arguments resolved from the run's ``config.yml``, ``eval_reward`` and
+    ``eval_kwargs``, so ``eval_reward`` only matters where the run has reward-only arguments).
     """
+    from agents.common import _py
+    from agents.evaluate import scoring_env_kwargs
+
     for d in reversed(run_dirs(log_folder, algo, env_id)):
         info = read_json(d / "train_info.json")
         if not (info and info.get("status") == "finished" and int(info.get("seed", -1)) == seed
@@ -59,10 +64,16 @@ def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, see
                 and Path(info["model"]).exists()):
             continue
         if evaluation is not None:
-            args_file = d / env_name(env_id) / "args.yml"
-            args = (yaml.safe_load(args_file.read_text()) or {}) if args_file.exists() else {}
-            if ({k: args.get(k, {} if k == "eval_kwargs" else None) for k in evaluation} != dict(evaluation)
-                    or not (d / "best_model.zip").exists()):
+            args_file, cfg_file = d / env_name(env_id) / "args.yml", d / env_name(env_id) / "config.yml"
+            if not (args_file.exists() and cfg_file.exists() and (d / "best_model.zip").exists()):
+                continue
+            args = yaml.safe_load(args_file.read_text()) or {}
+            kw = (yaml.safe_load(cfg_file.read_text()) or {}).get("env_kwargs") or {}
+            kw = dict(_py(kw) if isinstance(kw, str) else kw)
+            had = scoring_env_kwargs(env_id, kw, args.get("eval_reward", "training"), args.get("eval_kwargs"))[0]
+            want = scoring_env_kwargs(env_id, kw, evaluation["eval_reward"], evaluation["eval_kwargs"])[0]
+            if (args.get("eval_freq"), args.get("eval_episodes"), had) != (
+                    evaluation["eval_freq"], evaluation["eval_episodes"], want):
                 continue
         return info
     return None

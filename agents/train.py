@@ -26,11 +26,11 @@ from an uninterrupted run, so a resumed run is statistically, not bitwise, the s
 Periodic evaluation (``--eval-freq``) runs ``--eval-episodes`` deterministic episodes on the
 validation seeds ``EVAL_SEED_BASE + k``, the same at every evaluation, and keeps ``best_model.zip``
 (with ``best_model_vecnormalize.pkl``): the model of the evaluation with the highest mean return.
-That return is scored under the environment's **default** reward (``--eval-reward default``; the
-reward-only training arguments such as a higher ``w_energy`` are dropped, as in
-:mod:`agents.evaluate`) with the arguments of ``--eval-kwargs`` on top, e.g.
-``"{failure_rate: 2.0}"``: a failure then also costs every step it skips, so a checkpoint that ends
-validation episodes on a constraint cannot win by collecting less (negative) reward.  The metric
+That return is scored with the training environment's arguments, i.e. the reward the agent was trained
+for, as in rl-zoo3 (``--eval-reward training``; ``default`` drops the reward-only training arguments
+such as a higher ``w_energy``, as :mod:`agents.evaluate` does), with the arguments of ``--eval-kwargs``
+on top, e.g. ``"{failure_rate: 2.0}"``: a failure then also costs every step it skips, so a checkpoint
+that ends validation episodes on a constraint cannot win by collecting less (negative) reward.  The metric
 seeds of :mod:`agents.evaluate` (``METRIC_SEED_BASE + k``) stay unseen by both training and selection.
 """
 
@@ -185,7 +185,7 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
           hyperparams: str | os.PathLike[str] | None = None, params: Mapping[str, Any] | None = None,
           save_freq: int = 50_000, eval_freq: int = 25_000, eval_episodes: int = 4, n_eval_envs: int | None = None,
           tensorboard: bool = True, progress_bar: bool = False, num_threads: int = 1, device: str = "cpu",
-          verbose: int = 0, callbacks: Sequence[Any] = (), eval_reward: str = "default",
+          verbose: int = 0, callbacks: Sequence[Any] = (), eval_reward: str = "training",
           eval_kwargs: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Train (or resume) one agent; returns the run summary (also in ``SAVE_PATH/train_info.json``).
 
@@ -374,7 +374,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--eval-episodes", type=int, default=4)
     ap.add_argument("--n-eval-envs", type=int, default=None,
                     help="rows of the evaluation env (default: one per episode)")
-    ap.add_argument("--eval-reward", choices=("default", "training"), default="default",
+    ap.add_argument("--eval-reward", choices=("default", "training"), default="training",
                     help="reward the periodic evaluation (best_model.zip) is scored with")
     ap.add_argument("--eval-kwargs", type=yaml.safe_load, default=None, metavar="YAML",
                     help='environment arguments of the evaluation env on top, e.g. "{failure_rate: 2.0}"')

@@ -303,7 +303,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--eval-episodes", type=int, default=8, help="validation episodes per periodic evaluation")
     ap.add_argument("--select", choices=("final", "best"), default="final",
                     help="evaluate each agent's final model, or the best model of the periodic evaluation "
-                         "(validation return under the default reward, failures charged per skipped step)")
+                         "(validation return under the agent's training reward, failures charged per skipped step)")
     ap.add_argument("--skyhook-gains", nargs="*", type=float, default=[], metavar="C_SKY",
                     help="also evaluate the quarter-car skyhook at these damping gains (N s/m; default gain 1000)")
     ap.add_argument("--reuse-baselines", action="store_true",
@@ -368,8 +368,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     budget = ", ".join(f"{e.split('/')[-1]} {steps_for[e]}" for e in a.envs)
     models = ("final models" if a.select == "final" else
               f"each agent's best_model.zip: the checkpoint with the highest mean return on {a.eval_episodes} "
-              f"validation episodes (seeds 1000000 + k), evaluated every {a.eval_freq} steps under the default "
-              f"reward with a failure charged for every step it skips")
+              f"validation episodes (seeds 1000000 + k), evaluated every {a.eval_freq} steps (and at the end) under "
+              f"the reward the agent was trained with, a failure charged for every step it skips")
     sections = [f"Made by `{command}` ({a.algo.upper()}, timesteps per agent: {budget}; seeds {a.seeds}; "
                 f"{models}; {a.episodes} held-out test episodes (seeds 2000000 + k) of the full length per policy; "
                 f"returns under each environment's default reward). Training CPU time of "

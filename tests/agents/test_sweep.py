@@ -51,7 +51,7 @@ def test_select_best_evaluates_best_model_and_reuses_only_matching_runs(tmp_path
     # other evaluation settings: the run's best_model.zip was chosen by other rules, so it is trained again
     other = make_trials([FORCE], ["ppo"], [0], select="best", **{**base, "eval_episodes": 3})[0]
     assert finished_run(tmp_path, FORCE, "ppo", 0, 512, {"eval_freq": 256, "eval_episodes": 3,
-                                                         "eval_reward": "default", "eval_kwargs": {}}) is None
+                                                         "eval_reward": "training", "eval_kwargs": {}}) is None
     assert not run_trial(other)["reused"]
     # the final model is still there to select, and a run without periodic evaluation has no best model
     final = run_trial(make_trials([FORCE], ["ppo"], [0], select="final", **base)[0])

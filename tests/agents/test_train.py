@@ -185,7 +185,7 @@ def test_periodic_evaluation_scores_the_default_reward_and_the_final_model(tmp_p
 
     params = tiny("ppo", env_kwargs={"max_episode_steps": EPISODE, "w_energy": 50.0})
     kw = dict(log_folder=tmp_path, params=params, save_freq=256, eval_freq=300, eval_episodes=2,
-              eval_kwargs={"failure_rate": 2.0})
+              eval_reward="default", eval_kwargs={"failure_rate": 2.0})
     info = train(FORCE, "ppo", 512, seed=1, **kw)
     save = Path(info["save_path"])
     ev = np.load(save / "evaluations.npz")
