@@ -39,17 +39,31 @@ SELECT = ("final", "best")
 """Which model of a run a trial evaluates: the final one, or ``best_model.zip`` of the periodic evaluation."""
 
 
-def _evaluation_args(trial: Mapping[str, Any]) -> dict[str, Any]:
+def evaluation_settings(trial: Mapping[str, Any]) -> dict[str, Any]:
     """The periodic-evaluation settings of a trial, as :func:`agents.train.train` writes them to ``args.yml``."""
     return {"eval_freq": int(trial.get("eval_freq", 25_000)), "eval_episodes": int(trial.get("eval_episodes", 4)),
             "eval_reward": trial.get("eval_reward", "training"), "eval_kwargs": dict(trial.get("eval_kwargs") or {})}
+
+
+def selection_settings(trial: Mapping[str, Any]) -> dict[str, Any] | None:
+    """What a reusable run of the trial must share beyond (env, algo, seed, timesteps): the periodic-evaluation
+    settings for ``select: best`` (its ``best_model.zip`` must have been chosen by the same rules), else ``None``."""
+    select = trial.get("select", "final")
+    if select not in SELECT:
+        raise ValueError(f"select must be one of {SELECT}, got {select!r}")
+    if select == "final":
+        return None
+    settings = evaluation_settings(trial)
+    if settings["eval_freq"] <= 0:
+        raise ValueError("select 'best' needs the periodic evaluation: eval_freq > 0")
+    return settings
 
 
 def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, seed: int,
                  timesteps: int | None, evaluation: Mapping[str, Any] | None = None) -> dict[str, Any] | None:
     """``train_info`` of the newest finished run of (env, algo, seed) with ``timesteps`` steps, if any.
 
-    ``evaluation`` (periodic-evaluation settings, :func:`_evaluation_args`): the run must also hold a
+    ``evaluation`` (periodic-evaluation settings, :func:`evaluation_settings`): the run must also hold a
     ``best_model.zip`` chosen by the same rules: the same period and number of episodes, and the same
     evaluation environment (its arguments resolved from the run's ``config.yml``, ``eval_reward`` and
     ``eval_kwargs``, so ``eval_reward`` only matters where the run has reward-only arguments).
@@ -81,10 +95,7 @@ def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, see
 
 def trial_model(trial: Mapping[str, Any], info: Mapping[str, Any]) -> str:
     """The model a trial evaluates: the run's final model, or its ``best_model.zip`` (``select: best``)."""
-    select = trial.get("select", "final")
-    if select not in SELECT:
-        raise ValueError(f"select must be one of {SELECT}, got {select!r}")
-    if select == "final":
+    if selection_settings(trial) is None:
         return str(info["model"])
     best = Path(info["save_path"]) / "best_model.zip"
     if not best.exists():
@@ -112,9 +123,7 @@ def run_trial(trial: Mapping[str, Any]) -> dict[str, Any]:
     from agents.train import train
 
     t = dict(trial)
-    evaluation = _evaluation_args(t) if t.get("select", "final") == "best" else None
-    if evaluation is not None and evaluation["eval_freq"] <= 0:
-        raise ValueError("select 'best' needs the periodic evaluation: eval_freq > 0")
+    evaluation = selection_settings(t)
     info = None if t.get("retrain") else finished_run(t["log_folder"], t["env_id"], t["algo"], t["seed"],
                                                       t.get("timesteps"), evaluation)
     reused = info is not None
@@ -123,17 +132,17 @@ def run_trial(trial: Mapping[str, Any]) -> dict[str, Any]:
                      hyperparams=t.get("hyperparams"), params=t.get("params") or None,
                      save_freq=t.get("save_freq", 50_000),
                      n_eval_envs=t.get("n_eval_envs"), tensorboard=t.get("tensorboard", True),
-                     progress_bar=False, num_threads=1, **_evaluation_args(t))
+                     progress_bar=False, num_threads=1, **evaluation_settings(t))
     finished = info["status"] == "finished"
     model = trial_model(t, info) if finished else None
     out: dict[str, Any] = {"trial": t, "train_info": info, "reused": reused, "model": model,
-                           "selected_step": (best_step(info["save_path"]) if t.get("select", "final") == "best"
-                                             else info["num_timesteps"]), "metrics": None,
+                           "selected_step": (info["num_timesteps"] if evaluation is None
+                                             else best_step(info["save_path"])), "metrics": None,
                            "worker_niceness": os.nice(0) if hasattr(os, "nice") else None}
     if int(t.get("episodes", 0)) > 0 and finished:
         base = int(t.get("seed_base", METRIC_SEED_BASE))
         steps = t.get("episode_steps")
-        tag = "" if t.get("select", "final") == "final" else "_best"
+        tag = "" if evaluation is None else "_best"
         cached = Path(info["save_path"]) / f"metrics{tag}_{int(t['episodes'])}ep_{base}_{steps or 'full'}.json"
         metrics = read_json(cached) if reused else None  # a fresh training run is always evaluated
         if metrics is None:

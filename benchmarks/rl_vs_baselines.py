@@ -243,12 +243,12 @@ def mark_stale(trials: list[dict[str, Any]]) -> list[str]:
     import yaml
 
     from agents.common import env_name, read_hyperparams
-    from agents.sweep import _evaluation_args, finished_run
+    from agents.sweep import finished_run, selection_settings
 
     stale = []
     for t in trials:
-        evaluation = _evaluation_args(t) if t.get("select", "final") == "best" else None
-        info = finished_run(t["log_folder"], t["env_id"], t["algo"], t["seed"], t.get("timesteps"), evaluation)
+        info = finished_run(t["log_folder"], t["env_id"], t["algo"], t["seed"], t.get("timesteps"),
+                            selection_settings(t))
         if info is None:
             continue
         cfg = Path(info["save_path"]) / env_name(t["env_id"]) / "config.yml"
