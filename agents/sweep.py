@@ -61,7 +61,11 @@ def selection_settings(trial: Mapping[str, Any]) -> dict[str, Any] | None:
 
 def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, seed: int,
                  timesteps: int | None, evaluation: Mapping[str, Any] | None = None) -> dict[str, Any] | None:
-    """``train_info`` of the newest finished run of (env, algo, seed) with ``timesteps`` steps, if any.
+    """``train_info`` of the newest finished run of (env, algo, seed) trained for ``timesteps`` steps, if any.
+
+    ``timesteps`` is compared with the budget the run was given (``target_timesteps``): an on-policy run
+    ends on a whole rollout, so its step count can exceed the budget (PPO with 64 rows x 128 steps turns
+    1 500 000 into 1 507 328).
 
     ``evaluation`` (periodic-evaluation settings, :func:`evaluation_settings`): the run must also hold a
     ``best_model.zip`` chosen by the same rules: the same period and number of episodes, and the same
@@ -74,7 +78,8 @@ def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, see
     for d in reversed(run_dirs(log_folder, algo, env_id)):
         info = read_json(d / "train_info.json")
         if not (info and info.get("status") == "finished" and int(info.get("seed", -1)) == seed
-                and (timesteps is None or int(info.get("num_timesteps", -1)) == int(timesteps))
+                and (timesteps is None
+                     or int(info.get("target_timesteps", info.get("num_timesteps", -1))) == int(timesteps))
                 and Path(info["model"]).exists()):
             continue
         if evaluation is not None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -92,3 +93,15 @@ def test_skyhook_gain_rows_trade_comfort_for_energy() -> None:
     assert e[0] < e[1] < e[2]  # more skyhook damping draws more electrical energy
     with pytest.raises(ValueError, match=">= 0"):
         baseline_factories(QC, [-1.0])
+
+
+def test_a_run_is_found_by_its_budget_not_its_rounded_step_count(tmp_path: Path) -> None:
+    """PPO ends on a whole rollout (1 500 000 -> 1 507 328 steps with 64 x 128): the run of budget N is reused."""
+    from agents.common import write_json as wj
+    from agents.sweep import finished_run
+
+    save = _fake_run(tmp_path, "ppo", QC, 0, 1024, {})
+    info = json.loads((save / "train_info.json").read_text())
+    wj(save / "train_info.json", {**info, "target_timesteps": 1000})
+    assert finished_run(tmp_path, QC, "ppo", 0, 1000)["save_path"] == str(save)
+    assert finished_run(tmp_path, QC, "ppo", 0, 1024) is None
