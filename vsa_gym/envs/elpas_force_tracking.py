@@ -272,8 +272,9 @@ class ElpasForceTrackingEnv(TaskEnv):
     with ``gym.make(..., max_episode_steps=N)`` pass ``episode_steps=N`` as well), so that ending an
     episode on a constraint cannot be the cheap way out of tracking (2.0, about twice what the zero action
     pays per step on the table's 8 held-out episodes, does that).  The default is 0 (the fixed penalty
-    alone): the table's PPO agents (docs/agents.md) trained with 2.0 tracked worse on the same 8 held-out
-    episodes (242 N mean, 4 of 24 episodes ended on a constraint) than with 0 (212 N, 2 of 24): the lump
+    alone): PPO agents trained with 2.0 (final models of the comparison command with ``--eval-freq 0``,
+    recorded in docs/agents.md) tracked worse on the same 8 held-out episodes (242 N mean, 4 of 24
+    episodes ended on a constraint) than with 0 (212 N, 2 of 24): the lump
     charge of an early failure swamps the normalised tracking reward.  No agent was seen to end episodes
     on purpose here (see ``ELPAS-QuarterCar-v0`` for one that did).
 

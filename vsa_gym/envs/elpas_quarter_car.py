@@ -413,8 +413,9 @@ class ElpasQuarterCarEnv(TaskEnv):
     ``max_episode_steps``; with ``gym.make(..., max_episode_steps=N)`` pass ``episode_steps=N`` as well);
     1.0, more than three times what the passive car or the skyhook pay per step, closes that way out.
     It is not the default because PPO with normalised rewards trained worse with it: the lump charge of
-    an early failure (up to 5000) swamps the comfort signal: the table's three pure agents (docs/agents.md)
-    rode at 0.430 to 0.463 m/s^2 with it (one near the passive car) and at 0.412 to 0.436 without it.
+    an early failure (up to 5000) swamps the comfort signal: three pure PPO agents (final models of the
+    comparison command with ``--eval-freq 0``, recorded in docs/agents.md) rode at 0.430 to 0.463 m/s^2
+    with it (one near the passive car) and at 0.412 to 0.436 without it.
     Tables report every policy's episode lengths and violations, which show a policy that ends rides
     early whatever the reward says.
 

@@ -630,6 +630,3 @@ def _common_obs_of(x: np.ndarray, P: np.ndarray, C: np.ndarray, drv: np.ndarray,
     """Row ``i``'s common observation channels (:meth:`VsaUT2Task._common_obs`) into ``o``."""
     _common_obs_row(drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_CUR:D_CUR + 2],
                     drv[:, D_I2T:D_I2T + 2], C[:, K_LIM1:K_LIM2 + 1], P, C[:, K_KB], C[:, K_RATIO], i, o)
-
-
-
