@@ -82,7 +82,8 @@ def _identify(args: argparse.Namespace) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     print("\n".join(result.statements()))
-    print(f"\nheld-out: {result.test_name}")
+    print(f"\nreplay: {result.replay_mode}")
+    print(f"held-out: {result.test_name}")
     print(result.to_frame().to_string(index=False))
     if args.json:
         result.to_json(args.json)

@@ -50,6 +50,16 @@ class Adapter:
         """The same model replaying another record of the same device (e.g. the test record)."""
         raise NotImplementedError
 
+    #: multiple-shooting window in samples (0: one replay of the whole record)
+    shooting: int = 0
+
+    def can_shoot(self) -> bool:
+        """Whether :meth:`set_shooting` applies to this record (a device adapter may offer it)."""
+        return False
+
+    def set_shooting(self, window: float | None) -> None:
+        raise ValueError(f"{type(self).__name__} has no multiple-shooting replay")
+
     # -- shared
     def _sensor_effects(self) -> dict[str, EffectSpec]:
         y0 = self.measured[:, 0]
@@ -156,6 +166,8 @@ class DriveAdapter(Adapter):
         other = DriveAdapter(record, replay=self.replay)
         other.effects, other.base = self.effects, self.base
         other.F_ref, other.v_ref, other.x_ref = self.F_ref, self.v_ref, self.x_ref
+        if self.shooting:
+            other.set_shooting(self.shooting * self.dt)
         return other
 
     def _scales(self) -> None:
@@ -195,9 +207,15 @@ class DriveAdapter(Adapter):
         elif "k_c" not in free:
             eff["spring_stiffness_drift"] = EffectSpec("spring_stiffness_drift", "in the transmission spring",
                                                        (ParamSpec("drift", "-", -0.5, 0.5, 0.0, 0.05),))
-        eff["gearbox_efficiency"] = EffectSpec("gearbox_efficiency", "in the transmission",
-                                               (ParamSpec("loss", "-", 0.0, 0.6, 0.0, 0.05),))
-        eff["hysteresis"] = EffectSpec("hysteresis", where, (ParamSpec("F_h", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),))
+        # forward loss 1 - eta; back-driven loss 1 - eta_b (same start: a symmetric mesh)
+        eff["gearbox_efficiency"] = EffectSpec("gearbox_efficiency", "in the transmission", (
+            ParamSpec("loss", "-", 0.0, 0.7, 0.0, 0.05),
+            ParamSpec("loss_back", "-", 0.0, 0.8, 0.0, 0.05, main=False, check_bound=False)))
+        # Dahl force F_h and its presliding travel x_h = F_h / sigma_h
+        eff["hysteresis"] = EffectSpec("hysteresis", where, (
+            ParamSpec("F_h", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),
+            ParamSpec("x_h", lin, 2e-4 * self.x_ref, 0.3 * self.x_ref, 0.01 * self.x_ref, 0.01 * self.x_ref,
+                      main=False)))
         if "m" not in free:
             eff["inertia_error"] = EffectSpec("inertia_error", "of the moving parts",
                                               (ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.05),))
@@ -220,7 +238,11 @@ class DriveAdapter(Adapter):
         P[:, I["backlash"]] += _get(theta, "backlash.width", n)
         P[:, I["m"]] *= 1.0 + _get(theta, "inertia_error.rel", n)
         P[:, I["F_0"]] += _get(theta, "force_offset.F_0", n)
+        eta_nom = P[:, I["eta"]].copy()
         P[:, I["eta"]] *= 1.0 - _get(theta, "gearbox_efficiency.loss", n)
+        if "gearbox_efficiency.loss_back" in theta:
+            eta_b = np.where(P[:, I["eta_b"]] > 0, P[:, I["eta_b"]], eta_nom)
+            P[:, I["eta_b"]] = eta_b * (1.0 - _get(theta, "gearbox_efficiency.loss_back", n))
         comp = _get(theta, "transmission_compliance.compliance", n)
         # below 1/100 of the typical compliance the mode is far above the sampling rate: rigid (keeps RK4 cheap)
         c_typ = self.effects["transmission_compliance"].params[0].typical if hasattr(self, "effects") and \
@@ -233,7 +255,8 @@ class DriveAdapter(Adapter):
         P[on, I["c_c"]] = np.maximum(P[on, I["c_c"]], 2 * 0.05 * np.sqrt(kc[on] * red[on]))
         fh = _get(theta, "hysteresis.F_h", n)
         P[:, I["F_h"]] += fh
-        P[fh > 0, I["sigma_h"]] = fh[fh > 0] / (0.01 * self.x_ref) if hasattr(self, "x_ref") else 1.0
+        x_h = _get(theta, "hysteresis.x_h", n, 0.01 * getattr(self, "x_ref", 1.0))
+        P[fh > 0, I["sigma_h"]] = fh[fh > 0] / np.maximum(x_h[fh > 0], 1e-12)
         return P
 
     def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray) -> np.ndarray:
@@ -315,10 +338,59 @@ class DriveAdapter(Adapter):
         assert best is not None
         return state(best.x)
 
+    # -- multiple shooting (truncated simulation error) for replays that run away
+    def can_shoot(self) -> bool:
+        """Truncated simulation error needs an open-loop replay whose first output is a plain position sensor."""
+        mm = self.measurement[0]
+        return (self.ctrl is None and self.outputs[0].quantity == "position" and not mm.rectify
+                and mm.filter_hz == 0.0 and not self.init_window)
+
+    def set_shooting(self, window: float | None) -> None:
+        """Replay in windows of ``window`` seconds, each started from the measured state (None: one replay).
+
+        The start state of a window is the measured position (through the inverse of the measurement
+        model of the candidate: offset, gain, delay and the quantiser's bias taken out) and its speed, both
+        from a local quadratic (Savitzky-Golay, 5 ms or 5 samples) fit of the measured position; the motor
+        side starts with the load, the drive force at ``k_u u``, the hysteresis state at zero.
+        """
+        if window is None:
+            self.shooting = 0
+            return
+        if not self.can_shoot():
+            raise ValueError("multiple shooting needs an open-loop replay of a position output without "
+                             "rectification, filter or fitted initial state")
+        from scipy.signal import savgol_filter
+
+        self.shooting = max(int(round(window / self.dt)), 10)
+        half = max(2, int(round(0.0025 / self.dt)))
+        y = self.measured[:, 0]
+        self._x_meas = savgol_filter(y, 2 * half + 1, 2)
+        self._v_meas = savgol_filter(y, 2 * half + 1, 2, deriv=1, delta=self.dt)
+
+    def _windows(self) -> list[tuple[int, int]]:
+        if not self.shooting:
+            return self.segments
+        return [(w, min(w + self.shooting, b)) for a, b in self.segments for w in range(a, b, self.shooting)]
+
+    def _shoot_states(self, theta: Theta, P: np.ndarray, a: int) -> np.ndarray:
+        n = P.shape[0]
+        gain = 1.0 + _get(theta, "sensor_gain.gain", n)
+        delay = _get(theta, "sensor_delay.delay", n)
+        ta = self.t[a] + delay
+        raw = np.interp(ta, self.t, self._x_meas) - self.measurement[0].bias - _get(theta, "sensor_offset.offset", n)
+        x0 = self._start_states(P, a)
+        x0[:, 0] = x0[:, 2] = raw / gain
+        x0[:, 1] = x0[:, 3] = np.interp(ta, self.t, self._v_meas) / gain
+        return x0
+
     def simulate(self, theta: Theta, n: int) -> np.ndarray:
-        """Measured outputs ``(T, n, n_outputs)``; each segment is replayed and measured on its own."""
+        """Measured outputs ``(T, n, n_outputs)``; each segment (or shooting window) is replayed on its own."""
         P = self.param_matrix(theta, n)
         out = np.empty((len(self.t), n, len(self.outputs)))
+        if self.shooting:
+            for a, b in self._windows():
+                out[a:b] = self._measure(theta, self._rollout(P, a, b, self._shoot_states(theta, P, a)), a, b)
+            return out
         for a, b in self.segments:
             x0 = self._start_states(P, a)
             if self.init_window:

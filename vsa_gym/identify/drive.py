@@ -10,7 +10,7 @@ A DC motor in voltage mode with negligible inductance reduces to this form:
 :meth:`DriveParams.from_motor` builds ``k_u = k_t n / R`` and the back-EMF damping
 ``k_t k_e n^2 / R`` (added to ``b``) from :class:`vsa_gym.physics.dc_motor.DCMotorParams`.
 
-Rigid transmission (``k_c = 0`` and ``backlash = 0``): ``m x'' = eta(F_m) - F_f(v) - F_0 - h + F_ext``.
+Rigid transmission (``k_c = 0`` and ``backlash = 0``): ``m x'' = F_m - F_f(v) - F_0 - h + F_ext`` (efficiency below).
 With a compliant transmission or backlash the inertia splits into a motor side
 ``frac_m m`` and a load side ``(1 - frac_m) m`` joined by the transmission force::
 
@@ -30,9 +30,21 @@ Load friction (:mod:`vsa_gym.physics.friction` forms)::
 is the steady-state LuGre / Stribeck characteristic (``F_s`` is the static excess
 over Coulomb) with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`;
 the bristle dynamics are left out (their presliding travel is below the encoders'
-resolution on the rigs we identify).  ``eta`` is a gearbox efficiency (motor force
-times ``eta`` when the motor drives, divided by ``eta`` when the load back-drives);
-``h`` a Dahl hysteresis force (``dh/dt = sigma_h (v - |v| h / F_h)``).
+resolution on the rigs we identify).  ``h`` is a Dahl hysteresis force
+(``dh/dt = sigma_h (v - |v| h / F_h)``, presliding travel ``F_h / sigma_h``).
+
+Gearbox efficiency acts at the mesh, between the motor-side inertia ``m_m = frac_m m``
+(rotor and pinion, reflected) and the load side ``m_l = (1 - frac_m) m``, and depends on the
+direction of the mesh power: forward (the motor drives) the load receives ``eta F_mesh``,
+back-driven it receives ``F_mesh / eta_b``, where ``F_mesh = F_m - m_m x''`` is the motor force
+less the rotor's inertia force.  Rigid::
+
+    forward:     x'' = (eta F_m - L) / (m_l + eta m_m)          L = F_f + F_0 + h - F_ext
+    back-driven: x'' = (F_m / eta_b - L) / (m_l + m_m / eta_b)
+
+blended by the sign of ``F_mesh v`` (tanh over ``v_eps``).  With a compliant transmission the
+motor side feels the shaft force ``F_t / eta`` (forward) or ``F_t eta_b`` (back-driven).
+``eta_b = 0`` means ``eta_b = eta`` (the same efficiency both ways).
 
 Every effect parameter defaults to "absent" (0, or 1 for ``eta``), so the nominal
 drive is ``m x'' = k_u u - b v``.  The batched roll-out is compiled by numba: one
@@ -50,7 +62,7 @@ from vsa_gym.physics.dc_motor import DCMotorParams
 from vsa_gym.physics.parameters import ParameterSet, param
 
 PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
-                           "backlash", "eta", "F_h", "sigma_h", "k_contact")
+                           "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b")
 PIDX = {n: i for i, n in enumerate(PNAMES)}
 #: observables of the roll-out, in column order
 OBS: tuple[str, ...] = ("position", "velocity", "motor_position", "force", "controller_output")
@@ -99,6 +111,8 @@ class DriveParams(ParameterSet):
     k_contact: float = param(0.0, symbol="k_contact", unit="N/m", source="numerics", tag="numerics", lower=0.0,
                              doc="contact stiffness when backlash is present and k_c = 0 (0: a 50 Hz mode on the "
                                  "reduced mass)")
+    eta_b: float = param(0.0, symbol="eta_b", unit="-", source="effect", tag="proposed", lower=0.0, upper=1.0,
+                         doc="back-driven transmission efficiency (load drives the motor); 0: the same as eta")
 
     @classmethod
     def from_motor(cls, motor: DCMotorParams, ratio: float, m_load: float, b_load: float = 0.0,
@@ -144,6 +158,12 @@ def _tforce(P: np.ndarray, d: float, dv: float) -> float:
 
 
 @numba.njit(cache=True)
+def _forward(power: float, scale: float) -> float:
+    """Share of forward operation (1: the motor drives the load, 0: back-driven) from the mesh power."""
+    return 0.5 * (1.0 + np.tanh(power / (scale + 1e-12)))
+
+
+@numba.njit(cache=True)
 def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, out: np.ndarray) -> None:
     m, b, k_u, tau_e = P[0], P[1], P[2], P[3]
     F_c, F_s, v_s, v_eps, F_0 = P[4], P[5], P[6], P[7], P[8]
@@ -155,26 +175,35 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     else:
         Fm = k_u * u
         out[4] = 0.0
-    vmot = vm if two_mass else vl
-    if eta < 1.0:
-        w = 0.5 * (1.0 + np.tanh(Fm * vmot / (abs(Fm) * v_eps + 1e-12)))  # 1: motor drives, 0: back-driven
-        Fm = Fm * (w * eta + (1.0 - w) / eta)
+    eta_b = P[17] if P[17] > 0.0 else eta
     Ff = (F_c + F_s * np.exp(-(vl / v_s) ** 2)) * np.tanh(vl / v_eps) + b * vl
     if F_h > 0.0:
         out[5] = sig * (vl - abs(vl) * h / F_h)
     else:
         out[5] = 0.0
     load = Ff + F_0 + h - fext
+    mm = frac * m
+    ml = (1.0 - frac) * m
     if two_mass:
-        mm = frac * m
-        ml = (1.0 - frac) * m
         Ft = _tforce(P, xm - xl, vm - vl)
+        if eta < 1.0 or eta_b < 1.0:  # the shaft force seen by the motor side of the mesh
+            w = _forward(Ft * vm, abs(Ft) * v_eps)
+            Ft = Ft * (w / eta + (1.0 - w) * eta_b)
         out[0] = vl
-        out[1] = (Ft - load) / ml
+        out[1] = (Ft - load) / ml if ml > 0.0 else 0.0
         out[2] = vm
         out[3] = (Fm - Ft) / mm
     else:
-        a = (Fm - load) / m
+        if eta < 1.0 or eta_b < 1.0:
+            # the mesh passes the motor force less the rotor-side inertia force: forward eta (F_m - m_m a),
+            # back-driven (F_m - m_m a) / eta_b; the direction is that of the mesh power
+            a_f = (eta * Fm - load) / (ml + eta * mm)
+            a_b = (Fm / eta_b - load) / (ml + mm / eta_b)
+            Fmesh = Fm - mm * a_f
+            w = _forward(Fmesh * vl, abs(Fmesh) * v_eps)
+            a = w * a_f + (1.0 - w) * a_b
+        else:
+            a = (Fm - load) / m
         out[0] = vl
         out[1] = a
         out[2] = vl

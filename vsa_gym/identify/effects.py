@@ -52,6 +52,8 @@ class ParamSpec:
     absent: float = 0.0
     typical: float = 1.0  # magnitude used to start fits and to scale the search
     main: bool = True  # the parameter whose CI must exclude "absent"
+    check_bound: bool = True  # a fit that leaves it at a bound rejects the effect (False: a shape parameter
+    # whose bound is a physical limit, e.g. a lossless back-driven mesh)
 
     def clip(self, v: float) -> float:
         return float(min(max(v, self.lower), self.upper))

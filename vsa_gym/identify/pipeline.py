@@ -30,6 +30,7 @@ from scipy.optimize import least_squares
 from vsa_gym.identify.adapters import Adapter, make_adapter
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.record import Record
+from vsa_gym.identify.selection import Ambiguity, excess_share, lookalikes, noise_floor, separating_experiment
 
 
 # ----------------------------------------------------------------------------- metrics
@@ -97,6 +98,7 @@ class Candidate:
     fitted: bool = False
     val_score: float = float("nan")
     bic: float = float("nan")
+    share: float = float("nan")  # share of the excess misfit (above the noise floor) it removes on validation
     ci_excludes_absent: bool = False
     at_bound: bool = False
     accepted: bool = False
@@ -213,11 +215,21 @@ class IdentificationResult:
     test_name: str
     test_data: dict[str, np.ndarray]  # t, measured, nominal, extended (held-out part)
     unexplained: float  # share of the nominal validation residual that remains
+    ambiguous: list[Ambiguity] = dataclasses.field(default_factory=list)  # look-alikes the data cannot separate
+    replay_mode: str = ""  # how the record was replayed (full replay or multiple shooting, and why)
+    noise_floor: float = 0.0  # estimated measurement noise, as a validation NRMSE
+
+    @property
+    def ambiguous_names(self) -> set[str]:
+        return {n for a in self.ambiguous for n in a.between}
 
     @property
     def effects(self) -> list[dict[str, Any]]:
+        """The effects the workbench asserts (an ambiguous look-alike is in the model but not asserted)."""
         out = []
         for name in self.final.effects:
+            if name in self.ambiguous_names:
+                continue
             spec = self.adapter.effects[name]
             params, ci = {}, {}
             for p in spec.params:
@@ -230,9 +242,12 @@ class IdentificationResult:
 
     def statements(self) -> list[str]:
         """The causes in words."""
+        describe = {n: s.description for n, s in self.adapter.effects.items()}
+        amb = [a.statement(describe) for a in self.ambiguous]
         if not self.effects:
-            return [f"No significant effect: the nominal model is kept; {100 * self.unexplained:.0f} % of the "
-                    "validation residual variance remains unexplained (noise and unmodelled effects)."]
+            return [*amb, f"No significant effect{' asserted' if amb else ''}: the nominal model is kept; "
+                    f"{100 * self.unexplained:.0f} % of the validation residual variance remains unexplained "
+                    "(noise and unmodelled effects)."]
         lines = []
         for e in self.effects:
             spec = self.adapter.effects[e["name"]]
@@ -242,6 +257,7 @@ class IdentificationResult:
             unit = f" {main.unit}" if main.unit and main.unit != "-" else ""
             lines.append(f"{spec.description[0].upper()}{spec.description[1:]} {spec.location}: {main.name} = "
                          f"{v:.4g}{unit} (95 % CI {lo:.4g}–{hi:.4g})")
+        lines += amb
         lines.append(f"{100 * self.unexplained:.2g} % of the nominal validation residual variance remains "
                      "unexplained.")
         return lines
@@ -267,6 +283,8 @@ class IdentificationResult:
         return {
             "record": self.record.path, "device": self.record.device, "experiment": self.record.experiment,
             "test": self.test_name, "statements": self.statements(), "effects": self.effects,
+            "ambiguous": [a.to_dict() for a in self.ambiguous], "replay": self.replay_mode,
+            "noise_floor_nrmse": self.noise_floor,
             "metrics": {"before": self.metrics_before, "after": self.metrics_after},
             "diagnostics": {"before": self.diagnostics_before, "after": self.diagnostics_after},
             "unexplained_fraction": self.unexplained,
@@ -315,6 +333,7 @@ class IdentificationResult:
     def report_markdown(self) -> str:
         lines = [f"# Identification of {self.record.experiment} ({self.record.device})", ""]
         lines += [f"- {s}" for s in self.statements()]
+        lines += ["", f"Replay: {self.replay_mode}."]
         lines += ["", f"Held-out data: {self.test_name}.", "", self.to_frame().to_markdown(index=False, floatfmt=".4g")
                   if _has_tabulate() else self.to_frame().to_string(index=False), ""]
         lines += ["## Candidates", "", self.candidates_frame().drop(columns=["values"]).to_string(index=False)]
@@ -330,9 +349,21 @@ def _has_tabulate() -> bool:
 
 
 # ----------------------------------------------------------------------------- estimator
+#: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
+RUNAWAY_NRMSE = 1.0
+#: effects a multiple-shooting replay cannot see (each window starts at the measured position)
+SHOOTING_BLIND = ("sensor_offset",)
+
+
 @dataclasses.dataclass
 class Identifier:
-    """Find the effect(s) a record demands (see the module docstring)."""
+    """Find the effect(s) a record demands (see the module docstring and :mod:`vsa_gym.identify.selection`).
+
+    ``min_share``: share of the current model's excess validation misfit (above the noise floor) a
+    candidate must remove; ``ambiguity``: look-alikes validating within this relative difference of the
+    best are reported as ambiguous; ``shooting``: ``"auto"`` (multiple shooting when a full open-loop
+    replay runs away), ``"off"``, or a window length in seconds.
+    """
 
     max_effects: int = 2
     n_fit: int = 3
@@ -340,6 +371,9 @@ class Identifier:
     candidates: Sequence[str] | None = None
     max_nfev: int = 25
     replay: str | None = None
+    min_share: float = 0.3
+    ambiguity: float = 0.01
+    shooting: str | float = "auto"
     result_: IdentificationResult | None = None
 
     def fit(self, record: Record, test_record: Record | None = None) -> Identifier:
@@ -348,60 +382,147 @@ class Identifier:
         masks = record.masks()
         if "validation" not in masks:
             raise ValueError("the record's split needs a validation part (fractions) for honest selection")
-        base_keys = [f"base.{b.name}" for b in ad.base]
-        nominal = _fit(ad, {}, base_keys, list(ad.base), {k: b.absent for k, b in zip(base_keys, ad.base,
-                                                                                       strict=True)},
-                       masks, (), self.max_nfev)
-        names = [c for c in (self.candidates or ad.effects) if c in ad.effects]
+        nominal = full_nominal = self._nominal(ad, masks)
+        mode = f"{getattr(ad, 'replay', 'open_loop').replace('_', '-')} replay of the whole record"
+        floor = self._floor(ad, masks["validation"])
+        current, cands, ambiguous = self._select(ad, nominal, masks, floor)
+        runaway = nominal.val_score > RUNAWAY_NRMSE and current.val_score > RUNAWAY_NRMSE
+        if self.shooting != "off" and ad.can_shoot() and (self.shooting != "auto" or runaway):
+            # the full replay ran away and no effect brought it back: select on windows started from the
+            # measured state (truncated simulation error), where the least squares cannot stall on a drift
+            window = float(self.shooting) if self.shooting != "auto" else float(
+                np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2, 1.0))
+            ad.set_shooting(window)
+            mode = (f"multiple shooting: windows of {window:.3g} s, each started from the measured state "
+                    + (f"(the full open-loop replay ran away: validation NRMSE {nominal.val_score:.3g} nominal, "
+                       f"{current.val_score:.3g} with the effects it found)" if runaway else "(requested)"))
+            nominal = self._nominal(ad, masks)
+            current, more, ambiguous = self._select(ad, nominal, masks, floor)
+            cands += more
+            # where the selected model no longer runs away, its parameters are refitted by full simulation
+            # error and the held-out part is scored by full replay
+            ad.set_shooting(None)
+            refit = _fit(ad, {}, current.keys, current.specs, current.theta(), masks, current.effects, self.max_nfev)
+            if refit.val_score <= RUNAWAY_NRMSE:
+                mode += ("; the selected model was refitted by full simulation error and the held-out part is "
+                         "scored by full replay")
+                current, nominal = refit, full_nominal
+            else:
+                ad.set_shooting(window)
+                mode += (f"; the selected model still runs away in a full replay (validation NRMSE "
+                         f"{refit.val_score:.3g}), so the held-out part is scored on windows too")
+        self.result_ = self._score(record, ad, nominal, current, cands, masks, test_record)
+        self.result_.ambiguous = ambiguous
+        self.result_.replay_mode = mode
+        self.result_.noise_floor = floor
+        return self
+
+    def _select(self, ad: Adapter, nominal: FittedModel, masks: dict[str, np.ndarray],
+                floor: float) -> tuple[FittedModel, list[Candidate], list[Ambiguity]]:
+        """Forward selection with joint refits, the significance rules, look-alike ambiguity and pruning."""
+        names = [c for c in (self.candidates or ad.effects) if c in ad.effects
+                 and not (ad.shooting and c in SHOOTING_BLIND)]
         current = nominal
         cands: list[Candidate] = []
+        ambiguous: list[Ambiguity] = []
         for rnd in range(1, self.max_effects + 1):
             remaining = [c for c in names if c not in current.effects]
             if not remaining:
                 break
             ranked = self._rank(ad, current, remaining, masks["fit"])
-            best: tuple[FittedModel, Candidate] | None = None
-            for k, (name, score) in enumerate(ranked):
+            chosen = {n for n, _ in ranked[:self.n_fit]} | (lookalikes(ranked[0][0]) & set(remaining))
+            fitted: list[tuple[FittedModel, Candidate]] = []
+            for name, score in ranked:
                 cand = Candidate(rnd, name, score)
                 cands.append(cand)
-                if k >= self.n_fit:
+                if name not in chosen:
                     cand.reason = "not fitted (low rank)"
                     continue
-                spec = ad.effects[name]
-                keys = current.keys + list(spec.keys)
-                specs = current.specs + list(spec.params)
-                init = {**current.theta(), **{k2: p.typical for k2, p in zip(spec.keys, spec.params, strict=True)}}
-                fm = _fit(ad, {}, keys, specs, init, masks, (*current.effects, name), self.max_nfev)
-                cand.fitted = True
-                cand.val_score, cand.bic = fm.val_score, fm.bic
-                cand.values = {k2: fm.param(k2)[0] for k2 in spec.keys}
-                main = [(k2, p) for k2, p in zip(spec.keys, spec.params, strict=True) if p.main]
-                cand.ci_excludes_absent = all(not (fm.param(k2)[1] <= p.absent <= fm.param(k2)[2])
-                                              for k2, p in main)
-                cand.at_bound = any(k2 in fm.at_bound for k2 in spec.keys)
-                reasons = []
-                if not fm.val_score < (1 - self.margin) * current.val_score:
-                    reasons.append(f"validation error {fm.val_score:.4g} vs {current.val_score:.4g} "
-                                   f"(needs -{100 * self.margin:.0f} %)")
-                if not fm.bic < current.bic:
-                    reasons.append("BIC not improved")
-                if not cand.ci_excludes_absent:
-                    reasons.append("CI includes absent")
-                if cand.at_bound:
-                    reasons.append("parameter at a bound")
-                cand.accepted = not reasons
-                cand.reason = "; ".join(reasons) if reasons else "passes all criteria"
-                if cand.accepted and (best is None or fm.val_score < best[0].val_score):
-                    best = (fm, cand)
-            for c in cands:
-                if c.round == rnd and c.accepted and best is not None and c is not best[1]:
+                fm = self._with(ad, current, name, masks)
+                self._judge(ad, cand, fm, current, floor)
+                fitted.append((fm, cand))
+            passing = [(fm, c) for fm, c in fitted if c.accepted]
+            if not passing:
+                break
+            best_fm, best = min(passing, key=lambda p: p[0].val_score)
+            for _, c in passing:
+                if c is not best:
                     c.accepted = False
                     c.reason = "passes, but another candidate validates better"
-            if best is None:
-                break
-            current = best[0]
-        self.result_ = self._score(record, ad, nominal, current, cands, masks, test_record)
-        return self
+            alike = [(fm, c) for fm, c in fitted if c is not best and c.name in lookalikes(best.name)
+                     and c.ci_excludes_absent and not c.at_bound
+                     and fm.val_score <= (1 + self.ambiguity) * best_fm.val_score]
+            if alike:
+                ambiguous.append(Ambiguity(
+                    [best.name, *(c.name for _, c in alike)], rnd,
+                    {c.name: float(fm.val_score) for fm, c in [(best_fm, best), *alike]},
+                    {c.name: dict(c.values) for c in [best, *(c for _, c in alike)]},
+                    "; ".join(separating_experiment(best.name, c.name) for _, c in alike)))
+                best.reason = "passes, but a look-alike validates as well (ambiguous)"
+            current = self._prune(ad, best_fm, masks, cands, rnd)
+        return current, cands, ambiguous
+
+    def _nominal(self, ad: Adapter, masks: dict[str, np.ndarray]) -> FittedModel:
+        keys = [f"base.{b.name}" for b in ad.base]
+        return _fit(ad, {}, keys, list(ad.base), {k: b.absent for k, b in zip(keys, ad.base, strict=True)},
+                    masks, (), self.max_nfev)
+
+    @staticmethod
+    def _floor(ad: Adapter, mask: np.ndarray) -> float:
+        """Noise floor as a validation NRMSE (mean over the outputs, like :attr:`FittedModel.val_score`)."""
+        out = []
+        for j, s in enumerate(ad.outputs):
+            y = ad.measured[mask, j]
+            out.append(noise_floor(y, s.resolution) / (float(np.std(y)) or 1.0))
+        return float(np.mean(out))
+
+    def _with(self, ad: Adapter, current: FittedModel, name: str, masks: dict[str, np.ndarray]) -> FittedModel:
+        """``current`` plus effect ``name``, all refitted jointly."""
+        spec = ad.effects[name]
+        keys = current.keys + list(spec.keys)
+        specs = current.specs + list(spec.params)
+        init = {**current.theta(), **{k: p.typical for k, p in zip(spec.keys, spec.params, strict=True)}}
+        return _fit(ad, {}, keys, specs, init, masks, (*current.effects, name), self.max_nfev)
+
+    def _judge(self, ad: Adapter, cand: Candidate, fm: FittedModel, current: FittedModel, floor: float) -> None:
+        spec = ad.effects[cand.name]
+        cand.fitted = True
+        cand.val_score, cand.bic = fm.val_score, fm.bic
+        cand.values = {k: fm.param(k)[0] for k in spec.keys}
+        cand.share = excess_share(fm.val_score, current.val_score, floor)
+        main = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main]
+        cand.ci_excludes_absent = all(not (fm.param(k)[1] <= p.absent <= fm.param(k)[2]) for k, p in main)
+        cand.at_bound = any(k in fm.at_bound for k, p in zip(spec.keys, spec.params, strict=True) if p.check_bound)
+        reasons = []
+        if not fm.val_score < (1 - self.margin) * current.val_score:
+            reasons.append(f"validation error {fm.val_score:.4g} vs {current.val_score:.4g} "
+                           f"(needs -{100 * self.margin:.0f} %)")
+        if cand.share < self.min_share:
+            reasons.append(f"removes {100 * cand.share:.0f} % of the misfit above the noise floor "
+                           f"(needs {100 * self.min_share:.0f} %)")
+        if not fm.bic < current.bic:
+            reasons.append("BIC not improved")
+        if not cand.ci_excludes_absent:
+            reasons.append("CI includes absent")
+        if cand.at_bound:
+            reasons.append("parameter at a bound")
+        cand.accepted = not reasons
+        cand.reason = "; ".join(reasons) if reasons else "passes all criteria"
+
+    def _prune(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray], cands: list[Candidate],
+               rnd: int) -> FittedModel:
+        """Drop an earlier effect that the newly accepted set no longer needs (joint refit without it)."""
+        for name in fm.effects[:-1]:
+            keep = [i for i, k in enumerate(fm.keys) if not k.startswith(f"{name}.")]
+            reduced = _fit(ad, {}, [fm.keys[i] for i in keep], [fm.specs[i] for i in keep],
+                           {fm.keys[i]: float(fm.values[i]) for i in keep}, masks,
+                           tuple(e for e in fm.effects if e != name), self.max_nfev)
+            if reduced.val_score <= (1 + self.margin) * fm.val_score:
+                cands.append(Candidate(rnd, name, float("nan"), True, reduced.val_score, reduced.bic,
+                                       reason=f"dropped: not needed beside {fm.effects[-1]} (validation "
+                                              f"{reduced.val_score:.4g} without it vs {fm.val_score:.4g})"))
+                return reduced
+        return fm
 
     def _rank(self, ad: Adapter, cur: FittedModel, names: list[str], mask: np.ndarray) -> list[tuple[str, float]]:
         """Share of the residual's SSE each candidate's signature explains beyond the free parameters."""

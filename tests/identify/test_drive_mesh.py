@@ -1,0 +1,58 @@
+"""The drive's gearbox efficiency acts at the mesh: rotor inertia before it, direction by the mesh power."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vsa_gym.identify.drive import DriveParams, simulate
+
+M, FRAC, F = 2.0, 0.3, 10.0  # kg, motor-side share, N
+
+
+def _speed_after(params: DriveParams, u: float, v0: float, t: float = 0.02, dt: float = 1e-3) -> float:
+    n = int(round(t / dt))
+    x0 = np.array([0.0, v0, 0.0, v0, 0.0, 0.0])
+    y = simulate(params.vector(1), np.full(n + 1, u), dt, x0=x0, n_sub=20)
+    return float(y[-1, 0, 1])
+
+
+def test_forward_efficiency_acts_on_the_force_past_the_rotor_inertia():
+    eta, eta_b = 0.7, 0.5
+    p = DriveParams(m=M, k_u=1.0, frac_m=FRAC, eta=eta, eta_b=eta_b, v_eps=1e-4)
+    a = eta * F / ((1 - FRAC) * M + eta * FRAC * M)  # forward: x'' = eta F / (m_l + eta m_m)
+    v = _speed_after(p, F, v0=0.05)
+    assert v == pytest.approx(0.05 + a * 0.02, rel=1e-6)
+
+
+def test_back_driven_efficiency_brakes_harder_than_the_motor_force():
+    eta, eta_b = 0.7, 0.5
+    p = DriveParams(m=M, k_u=1.0, frac_m=FRAC, eta=eta, eta_b=eta_b, v_eps=1e-4)
+    a = -F / eta_b / ((1 - FRAC) * M + FRAC * M / eta_b)  # back-driven: (F_m / eta_b) / (m_l + m_m / eta_b)
+    v = _speed_after(p, -F, v0=1.0)
+    assert v == pytest.approx(1.0 + a * 0.02, rel=1e-6)
+
+
+def test_lossless_mesh_is_the_rigid_body_and_eta_b_defaults_to_eta():
+    v = _speed_after(DriveParams(m=M, k_u=1.0, frac_m=FRAC), F, v0=0.05)
+    assert v == pytest.approx(0.05 + F / M * 0.02, rel=1e-9)
+    same = DriveParams(m=M, k_u=1.0, frac_m=FRAC, eta=0.8, v_eps=1e-4)
+    both = DriveParams(m=M, k_u=1.0, frac_m=FRAC, eta=0.8, eta_b=0.8, v_eps=1e-4)
+    for u, v0 in ((F, 0.05), (-F, 1.0)):
+        assert _speed_after(same, u, v0) == _speed_after(both, u, v0)
+
+
+def test_mesh_never_delivers_more_power_than_it_receives():
+    """Over random forces and speeds (away from the tanh blend at v = 0) the mesh loss is >= 0."""
+    rng = np.random.default_rng(0)
+    dt = 1e-5
+    for _ in range(40):
+        eta, eta_b = rng.uniform(0.4, 1.0, 2)
+        frac = rng.uniform(0.05, 0.9)
+        p = DriveParams(m=M, k_u=1.0, frac_m=frac, eta=eta, eta_b=eta_b, v_eps=1e-5)
+        u, v0 = rng.uniform(-20, 20), rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 2.0)
+        x0 = np.array([0.0, v0, 0.0, v0, 0.0, 0.0])
+        a = (simulate(p.vector(1), np.full(2, u), dt, x0=x0, n_sub=1)[-1, 0, 1] - v0) / dt
+        mesh_in = (u - frac * M * a) * v0  # motor force less the rotor's inertia force, times speed
+        mesh_out = (1 - frac) * M * a * v0  # what the load side receives
+        assert mesh_in - mesh_out >= -1e-6 * abs(mesh_in)
