@@ -81,7 +81,7 @@ def test_drive_friction_matches_the_physics_component():
         # balance k_u u = F_c tanh(v/eps) + b v at constant speed: start there, check it stays
         f = float(coulomb_viscous_moment(CoulombViscousParams(F_c=F_c, b=b, omega_eps=eps), np.array(v)))
         P = DriveParams(m=1.0, b=b, k_u=1.0, F_c=F_c, v_eps=eps).vector(1)
-        x0 = np.array([0.0, v, 0.0, v, 0.0, 0.0])
+        x0 = np.array([0.0, v, 0.0, v, 0.0, 0.0, 0.0])
         y = simulate(P, np.full(200, f), 1e-3, x0=x0)
         assert y[-1, 0, 1] == pytest.approx(v, rel=1e-9)
 

@@ -5,14 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vsa_gym.identify.drive import DriveParams, simulate
+from vsa_gym.identify.drive import N_STATE, DriveParams, simulate
 
 M, FRAC, F = 2.0, 0.3, 10.0  # kg, motor-side share, N
 
 
 def _speed_after(params: DriveParams, u: float, v0: float, t: float = 0.02, dt: float = 1e-3) -> float:
     n = int(round(t / dt))
-    x0 = np.array([0.0, v0, 0.0, v0, 0.0, 0.0])
+    x0 = np.zeros(N_STATE)
+    x0[[1, 3]] = v0
     y = simulate(params.vector(1), np.full(n + 1, u), dt, x0=x0, n_sub=20)
     return float(y[-1, 0, 1])
 
@@ -51,8 +52,23 @@ def test_mesh_never_delivers_more_power_than_it_receives():
         frac = rng.uniform(0.05, 0.9)
         p = DriveParams(m=M, k_u=1.0, frac_m=frac, eta=eta, eta_b=eta_b, v_eps=1e-5)
         u, v0 = rng.uniform(-20, 20), rng.choice([-1.0, 1.0]) * rng.uniform(0.1, 2.0)
-        x0 = np.array([0.0, v0, 0.0, v0, 0.0, 0.0])
+        x0 = np.zeros(N_STATE)
+        x0[[1, 3]] = v0
         a = (simulate(p.vector(1), np.full(2, u), dt, x0=x0, n_sub=1)[-1, 0, 1] - v0) / dt
         mesh_in = (u - frac * M * a) * v0  # motor force less the rotor's inertia force, times speed
         mesh_out = (1 - frac) * M * a * v0  # what the load side receives
         assert mesh_in - mesh_out >= -1e-6 * abs(mesh_in)
+
+
+def test_stiction_bristle_holds_without_creep_and_slides_beyond_the_breakaway_force():
+    """With a stiction travel x_c the load holds below F_c (displacement < x_c, no creep); above it slides."""
+    F_c, x_c = 5.0, 1e-6
+    p = DriveParams(m=M, k_u=1.0, F_c=F_c, x_c=x_c, v_eps=1e-3)
+    held = simulate(p.vector(1), np.full(3000, 0.9 * F_c), 1e-3)[:, 0, 0]
+    assert np.max(np.abs(held)) < x_c
+    assert abs(held[-1] - held[1500]) < 1e-3 * x_c  # no creep once settled
+    tanh_law = simulate(DriveParams(m=M, k_u=1.0, F_c=F_c, v_eps=1e-3).vector(1), np.full(3000, 0.9 * F_c),
+                        1e-3)[:, 0, 0]
+    assert tanh_law[-1] > 100 * x_c  # the regularised law creeps
+    slid = simulate(p.vector(1), np.full(1001, 1.5 * F_c), 1e-3)[:, 0, 1]
+    assert slid[-1] == pytest.approx(0.5 * F_c / M * 1.0, rel=1e-2)  # (1.5 F_c - F_c) / m after 1 s

@@ -110,6 +110,9 @@ class DriveAdapter(Adapter):
         model = record.model
         self.params = drive.DriveParams(**model.get("params", {}))
         self.rot = model.get("motion", "translational") == "rotational"
+        if self.params.b_emf > self.params.b:
+            raise ValueError(f"model.params: b_emf = {self.params.b_emf:g} (back-EMF part of b) exceeds b = "
+                             f"{self.params.b:g}; b is the whole viscous damping, back-EMF included")
         free = model.get("free", {})
         self.base = []
         for name, (lo, hi) in free.items():
@@ -211,14 +214,17 @@ class DriveAdapter(Adapter):
         eff["gearbox_efficiency"] = EffectSpec("gearbox_efficiency", "in the transmission", (
             ParamSpec("loss", "-", 0.0, 0.7, 0.0, 0.05),
             ParamSpec("loss_back", "-", 0.0, 0.8, 0.0, 0.05, main=False, check_bound=False)))
-        # Dahl force F_h and its presliding travel x_h = F_h / sigma_h
+        # Dahl force F_h and its presliding travel x_h = F_h / sigma_h; a travel of a few sensor counts or
+        # less is not a resolved presliding regime but a friction that sticks (Coulomb friction)
+        res = max((s.resolution for s in self.outputs if s.quantity == "position"), default=0.0)
+        x_min = max(2e-4 * self.x_ref, 4.0 * res)
         eff["hysteresis"] = EffectSpec("hysteresis", where, (
             ParamSpec("F_h", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),
-            ParamSpec("x_h", lin, 2e-4 * self.x_ref, 0.3 * self.x_ref, 0.01 * self.x_ref, 0.01 * self.x_ref,
-                      main=False)))
+            ParamSpec("x_h", lin, x_min, 0.3 * self.x_ref, max(0.01 * self.x_ref, 2 * x_min),
+                      max(0.01 * self.x_ref, 2 * x_min), main=False)))
         if "m" not in free:
             eff["inertia_error"] = EffectSpec("inertia_error", "of the moving parts",
-                                              (ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.05),))
+                                              (ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.05, tolerance=0.05),))
         if "F_0" not in free:
             eff["force_offset"] = EffectSpec("force_offset", where, (ParamSpec("F_0", rot, -0.3 * F, 0.3 * F, 0.0,
                                                                                0.02 * F),))
@@ -280,7 +286,8 @@ class DriveAdapter(Adapter):
     def _start_states(self, P: np.ndarray, a: int) -> np.ndarray:
         """Initial state of every row at segment start ``a``: the sidecar's, with the drive force at ``k_u u_a``."""
         x0 = np.repeat(self.x0[None, :], P.shape[0], axis=0)
-        x0[:, 4] = P[:, drive.PIDX["k_u"]] * self.u[a]
+        I = drive.PIDX
+        x0[:, 4] = P[:, I["k_u"]] * self.u[a] - P[:, I["b_emf"]] * x0[:, 3]
         return x0
 
     def _fit_start_state(self, theta: Theta, P: np.ndarray, a: int, x0: np.ndarray) -> np.ndarray:
@@ -381,6 +388,7 @@ class DriveAdapter(Adapter):
         x0 = self._start_states(P, a)
         x0[:, 0] = x0[:, 2] = raw / gain
         x0[:, 1] = x0[:, 3] = np.interp(ta, self.t, self._v_meas) / gain
+        x0[:, 4] = P[:, drive.PIDX["k_u"]] * self.u[a] - P[:, drive.PIDX["b_emf"]] * x0[:, 3]
         return x0
 
     def simulate(self, theta: Theta, n: int) -> np.ndarray:

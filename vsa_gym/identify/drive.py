@@ -5,6 +5,11 @@ selected by ``DriveParams.motion``.  The drive force is the amplifier's::
 
     F_m = k_u u                     (u: voltage of a current-mode amplifier, or a current, or a force)
     tau_e dF/dt = k_u u - F         (optional first-order amplifier / electrical lag, tau_e > 0)
+    tau_e dF/dt = k_u u - b_emf v - F   (voltage drive with inductance: L / R = tau_e, back-EMF in the lag)
+
+``b_emf`` is the part of the viscous ``b`` that is the motor's back-EMF damping
+``k_t k_e n^2 / R``: in a voltage drive the back-EMF voltage drives the winding current, so it
+acts through the ``L / R`` lag, not instantly (with ``tau_e = 0`` it is simply part of ``b``).
 
 A DC motor in voltage mode with negligible inductance reduces to this form:
 :meth:`DriveParams.from_motor` builds ``k_u = k_t n / R`` and the back-EMF damping
@@ -28,7 +33,16 @@ Load friction (:mod:`vsa_gym.physics.friction` forms)::
     F_f(v) = (F_c + F_s exp(-(v/v_s)^2)) tanh(v / v_eps) + b v
 
 is the steady-state LuGre / Stribeck characteristic (``F_s`` is the static excess
-over Coulomb) with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`;
+over Coulomb) with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`.
+With a stiction travel ``x_c > 0`` (the identification sets it below the encoder's resolution)
+the friction sticks instead of creeping: a reset-integrator bristle ``z`` (Haessig & Friedland
+1991) with ``k_0 = (F_c + F_s) / x_c``::
+
+    dz/dt = v  while |z| < x_c or z v < 0,   else 0
+    F_f = clip(k_0 z, -g(v), g(v)) + 2 sqrt(k_0 m_l) dz/dt + b v,   g(v) = F_c + F_s exp(-(v/v_s)^2)
+
+so the load holds against any force below ``F_c + F_s`` (a critically damped spring of travel
+``x_c``) and slides with ``g(v)`` beyond;
 the bristle dynamics are left out (their presliding travel is below the encoders'
 resolution on the rigs we identify).  ``h`` is a Dahl hysteresis force
 (``dh/dt = sigma_h (v - |v| h / F_h)``, presliding travel ``F_h / sigma_h``).
@@ -62,11 +76,12 @@ from vsa_gym.physics.dc_motor import DCMotorParams
 from vsa_gym.physics.parameters import ParameterSet, param
 
 PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
-                           "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b")
+                           "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b",
+                           "b_emf", "x_c")
 PIDX = {n: i for i, n in enumerate(PNAMES)}
 #: observables of the roll-out, in column order
 OBS: tuple[str, ...] = ("position", "velocity", "motor_position", "force", "controller_output")
-N_STATE = 6  # x_l, v_l, x_m, v_m, F (lagged drive force), h (hysteresis)
+N_STATE = 7  # x_l, v_l, x_m, v_m, F (lagged drive force), h (hysteresis), z (friction bristle)
 F_CONTACT = 50.0  # Hz: default backlash contact mode on the reduced mass
 ZETA_CONTACT = 0.7  # damping ratio of the backlash contact
 E_CORNER = 0.05  # rounding of the dead-zone corners, as a share of the half gap g
@@ -111,6 +126,12 @@ class DriveParams(ParameterSet):
     k_contact: float = param(0.0, symbol="k_contact", unit="N/m", source="numerics", tag="numerics", lower=0.0,
                              doc="contact stiffness when backlash is present and k_c = 0 (0: a 50 Hz mode on the "
                                  "reduced mass)")
+    b_emf: float = param(0.0, symbol="b_emf", unit="N s/m", source="record sidecar", tag="proposed", lower=0.0,
+                         doc="the part of b that is a voltage-driven motor's back-EMF (k_t k_e n^2 / R): with a "
+                             "lag tau_e = L / R it acts through the winding, tau_e dF/dt = k_u u - b_emf v - F")
+    x_c: float = param(0.0, symbol="x_c", unit="m", source="numerics", tag="numerics", lower=0.0,
+                       doc="stiction travel of the friction bristle (reset integrator); 0: tanh regularisation over "
+                           "v_eps. Below the sensor's resolution, so that stuck friction holds without creeping")
     eta_b: float = param(0.0, symbol="eta_b", unit="-", source="effect", tag="proposed", lower=0.0, upper=1.0,
                          doc="back-driven transmission efficiency (load drives the motor); 0: the same as eta")
 
@@ -168,22 +189,34 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     m, b, k_u, tau_e = P[0], P[1], P[2], P[3]
     F_c, F_s, v_s, v_eps, F_0 = P[4], P[5], P[6], P[7], P[8]
     frac, eta, F_h, sig = P[11], P[13], P[14], P[15]
-    xl, vl, xm, vm, F, h = s[0], s[1], s[2], s[3], s[4], s[5]
+    xl, vl, xm, vm, F, h, z = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
+    b_emf = P[18] if tau_e > 0.0 else 0.0  # back-EMF through the winding's lag (voltage drive)
     if tau_e > 0.0:
         Fm = F
-        out[4] = (k_u * u - F) / tau_e
+        out[4] = (k_u * u - b_emf * (vm if two_mass else vl) - F) / tau_e
     else:
         Fm = k_u * u
         out[4] = 0.0
+    b = b - b_emf
     eta_b = P[17] if P[17] > 0.0 else eta
-    Ff = (F_c + F_s * np.exp(-(vl / v_s) ** 2)) * np.tanh(vl / v_eps) + b * vl
+    mm = frac * m
+    ml = (1.0 - frac) * m
+    g_v = F_c + F_s * np.exp(-(vl / v_s) ** 2)
+    x_c = P[19]
+    if x_c > 0.0 and F_c + F_s > 0.0:
+        # reset-integrator bristle: a stiff spring while stuck (|z| < x_c), the sliding law g(v) beyond
+        k0 = (F_c + F_s) / x_c
+        dz = vl if (abs(z) < x_c or z * vl < 0.0) else 0.0
+        Ff = min(max(k0 * z, -g_v), g_v) + 2.0 * np.sqrt(k0 * (ml if two_mass else m)) * dz + b * vl
+        out[6] = dz
+    else:
+        Ff = g_v * np.tanh(vl / v_eps) + b * vl
+        out[6] = 0.0
     if F_h > 0.0:
         out[5] = sig * (vl - abs(vl) * h / F_h)
     else:
         out[5] = 0.0
     load = Ff + F_0 + h - fext
-    mm = frac * m
-    ml = (1.0 - frac) * m
     if two_mass:
         Ft = _tforce(P, xm - xl, vm - vl)
         if eta < 1.0 or eta_b < 1.0:  # the shaft force seen by the motor side of the mesh
@@ -289,8 +322,12 @@ def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
     """RK4 substeps that keep ``h |lambda| < 1.5`` for the fastest mode of every row."""
     m = P[:, PIDX["m"]]
     frac = P[:, PIDX["frac_m"]]
+    m_load = m * np.where((P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0), 1 - frac + 1e-9, 1.0)
+    F_st = P[:, PIDX["F_c"]] + P[:, PIDX["F_s"]]
+    x_c = P[:, PIDX["x_c"]]
     rates = [P[:, PIDX["b"]] / m,
-             (P[:, PIDX["F_c"]] + P[:, PIDX["F_s"]]) / (P[:, PIDX["v_eps"]] * m * (1 - frac + 1e-9)),
+             np.where(x_c > 0, 3.0 * np.sqrt(F_st / np.maximum(x_c, 1e-300) / m_load),  # bristle: spring + damping
+                      F_st / (P[:, PIDX["v_eps"]] * m_load)),
              np.where(P[:, PIDX["tau_e"]] > 0, 1.0 / np.maximum(P[:, PIDX["tau_e"]], 1e-12), 0.0),
              P[:, PIDX["sigma_h"]] * vmax / np.maximum(P[:, PIDX["F_h"]], 1e-12) * (P[:, PIDX["F_h"]] > 0)]
     two = (P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0)
