@@ -144,9 +144,11 @@ class Identifier:
     """Find the effect(s) a record demands (see the module docstring and :mod:`vsa_gym.identify.selection`).
 
     ``min_share``: share of the current model's excess validation misfit (above the noise floor) a
-    candidate must remove; ``ambiguity``: look-alikes validating within this relative difference of the
-    best are reported as ambiguous; ``shooting``: ``"auto"`` (multiple shooting when a full open-loop
-    replay runs away), ``"off"``, or a window length in seconds.
+    first effect must remove, ``min_share_next`` a further one; ``floor_factor``: no effect is added
+    to a model whose validation NRMSE is already within this factor of the noise floor;
+    ``ambiguity``: look-alikes validating within this relative difference of the best are reported
+    as ambiguous; ``shooting``: ``"auto"`` (multiple shooting when a full open-loop replay runs
+    away), ``"off"``, or a window length in seconds.
     """
 
     max_effects: int = 2
@@ -156,6 +158,8 @@ class Identifier:
     max_nfev: int = 25
     replay: str | None = None
     min_share: float = 0.3
+    min_share_next: float = 0.9
+    floor_factor: float = 3.0
     ambiguity: float = 0.01
     shooting: str | float = "auto"
     result_: IdentificationResult | None = None
@@ -302,9 +306,13 @@ class Identifier:
         if not fm.val_score < (1 - self.margin) * current.val_score:
             reasons.append(f"validation error {fm.val_score:.4g} vs {current.val_score:.4g} "
                            f"(needs -{100 * self.margin:.0f} %)")
-        if cand.share < self.min_share:
+        need = self.min_share if not current.effects else self.min_share_next
+        if cand.share < need:
             reasons.append(f"removes {100 * cand.share:.0f} % of the misfit above the noise floor "
-                           f"(needs {100 * self.min_share:.0f} %)")
+                           f"(needs {100 * need:.0f} %)")
+        if current.val_score < self.floor_factor * floor:
+            reasons.append(f"the model is already within {self.floor_factor:g}x the noise floor "
+                           f"({current.val_score:.3g} vs {floor:.3g})")
         if not fm.bic < current.bic:
             reasons.append("BIC not improved")
         if not cand.ci_excludes_absent:

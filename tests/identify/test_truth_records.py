@@ -1,0 +1,40 @@
+"""Identification through the CLI on records of the independent truth simulator (tests/truthsim).
+
+The simulator shares no code with the fitted drive model: exact stiction, L/R or current-loop
+amplifiers, quantised encoders.  The full case set is ``python -m benchmarks.identify_truth``
+(docs/identification.md); these are two of its cases as a CI-sized check that a planted effect is
+named with its magnitude and that a nominal record names nothing.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.truthsim.scenarios import draw_case, write_case
+from vsa_gym.cli import main
+
+BASE = 20250 * 1000  # the benchmark's default case seeds: base seed * 1000 + index
+
+
+def _identify(tmp_path, seed: int, effects: tuple[str, ...]) -> tuple[dict, dict]:
+    csv = write_case(draw_case(seed, effects), tmp_path)
+    out = tmp_path / "out.json"
+    assert main(["identify", str(csv), "--json", str(out)]) == 0
+    truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
+    return json.loads(out.read_text()), truth
+
+
+def test_planted_coulomb_friction_is_named_alone_within_15_percent(tmp_path):
+    res, truth = _identify(tmp_path, BASE + 0, ("coulomb_friction",))
+    assert [e["name"] for e in res["effects"]] == ["coulomb_friction"], res["statements"]
+    got = res["effects"][0]["parameters"]["F_c"]
+    assert got == pytest.approx(truth["main"]["coulomb_friction"], rel=0.15)
+    assert res["metrics"]["after"]["q"]["rmse"] < res["metrics"]["before"]["q"]["rmse"]
+
+
+def test_nominal_truth_record_names_nothing(tmp_path):
+    res, _ = _identify(tmp_path, BASE + 60, ())
+    assert res["effects"] == [] and res["ambiguous"] == [], res["statements"]
+    assert res["replay"]
