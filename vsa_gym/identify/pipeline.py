@@ -158,7 +158,7 @@ class Identifier:
     max_nfev: int = 25
     replay: str | None = None
     min_share: float = 0.3
-    min_share_next: float = 0.9
+    min_share_next: float = 0.7
     floor_factor: float = 3.0
     ambiguity: float = 0.01
     shooting: str | float = "auto"
