@@ -53,9 +53,16 @@ class Adapter:
     #: multiple-shooting window in samples (0: one replay of the whole record)
     shooting: int = 0
 
+    #: effects a multiple-shooting replay cannot see
+    SHOOTING_BLIND: tuple[str, ...] = ()
+
     def can_shoot(self) -> bool:
         """Whether :meth:`set_shooting` applies to this record (a device adapter may offer it)."""
         return False
+
+    def observable_effects(self) -> list[str]:
+        """The catalogue effects the current replay can see (all, unless it replays on shooting windows)."""
+        return [e for e in self.effects if not (self.shooting and e in self.SHOOTING_BLIND)]
 
     def set_shooting(self, window: float | None) -> None:
         raise ValueError(f"{type(self).__name__} has no multiple-shooting replay")
@@ -283,9 +290,15 @@ class DriveAdapter(Adapter):
                 out[:, :, j] = mm.apply(self.t[a:b], x[:, :, j])
         return out
 
-    def _start_states(self, P: np.ndarray, a: int) -> np.ndarray:
-        """Initial state of every row at segment start ``a``: the sidecar's, with the drive force at ``k_u u_a``."""
+    def _start_states(self, P: np.ndarray, a: int, position: np.ndarray | None = None,
+                      speed: np.ndarray | None = None) -> np.ndarray:
+        """Initial state of every row at segment start ``a``: the sidecar's (or the given ``position`` and
+        ``speed`` of load and motor side), with the drive force in equilibrium, ``k_u u_a - b_emf v``."""
         x0 = np.repeat(self.x0[None, :], P.shape[0], axis=0)
+        if position is not None:
+            x0[:, 0] = x0[:, 2] = position
+        if speed is not None:
+            x0[:, 1] = x0[:, 3] = speed
         I = drive.PIDX
         x0[:, 4] = P[:, I["k_u"]] * self.u[a] - P[:, I["b_emf"]] * x0[:, 3]
         return x0
@@ -346,6 +359,9 @@ class DriveAdapter(Adapter):
         return state(best.x)
 
     # -- multiple shooting (truncated simulation error) for replays that run away
+    #: each window starts at the measured position, which hides a constant sensor offset
+    SHOOTING_BLIND = ("sensor_offset",)
+
     def can_shoot(self) -> bool:
         """Truncated simulation error needs an open-loop replay whose first output is a plain position sensor."""
         mm = self.measurement[0]
@@ -385,11 +401,7 @@ class DriveAdapter(Adapter):
         delay = _get(theta, "sensor_delay.delay", n)
         ta = self.t[a] + delay
         raw = np.interp(ta, self.t, self._x_meas) - self.measurement[0].bias - _get(theta, "sensor_offset.offset", n)
-        x0 = self._start_states(P, a)
-        x0[:, 0] = x0[:, 2] = raw / gain
-        x0[:, 1] = x0[:, 3] = np.interp(ta, self.t, self._v_meas) / gain
-        x0[:, 4] = P[:, drive.PIDX["k_u"]] * self.u[a] - P[:, drive.PIDX["b_emf"]] * x0[:, 3]
-        return x0
+        return self._start_states(P, a, raw / gain, np.interp(ta, self.t, self._v_meas) / gain)
 
     def simulate(self, theta: Theta, n: int) -> np.ndarray:
         """Measured outputs ``(T, n, n_outputs)``; each segment (or shooting window) is replayed on its own."""

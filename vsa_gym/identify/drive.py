@@ -34,7 +34,7 @@ Load friction (:mod:`vsa_gym.physics.friction` forms)::
 
 is the steady-state LuGre / Stribeck characteristic (``F_s`` is the static excess
 over Coulomb) with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`.
-With a stiction travel ``x_c > 0`` (the identification sets it below the encoder's resolution)
+With a stiction travel ``x_c > 0`` (a sidecar parameter; give it below the encoder's resolution)
 the friction sticks instead of creeping: a reset-integrator bristle ``z`` (Haessig & Friedland
 1991) with ``k_0 = (F_c + F_s) / x_c``::
 
@@ -42,9 +42,8 @@ the friction sticks instead of creeping: a reset-integrator bristle ``z`` (Haess
     F_f = clip(k_0 z, -g(v), g(v)) + 2 sqrt(k_0 m_l) dz/dt + b v,   g(v) = F_c + F_s exp(-(v/v_s)^2)
 
 so the load holds against any force below ``F_c + F_s`` (a critically damped spring of travel
-``x_c``) and slides with ``g(v)`` beyond;
-the bristle dynamics are left out (their presliding travel is below the encoders'
-resolution on the rigs we identify).  ``h`` is a Dahl hysteresis force
+``x_c``) and slides with ``g(v)`` beyond.  With ``x_c = 0`` (the default) the tanh law above
+creeps at a speed of order ``v_eps`` under a force below the breakaway level.  ``h`` is a Dahl hysteresis force
 (``dh/dt = sigma_h (v - |v| h / F_h)``, presliding travel ``F_h / sigma_h``).
 
 Gearbox efficiency acts at the mesh, between the motor-side inertia ``m_m = frac_m m``

@@ -135,8 +135,6 @@ def _fit(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[Para
 # ----------------------------------------------------------------------------- estimator
 #: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
 RUNAWAY_NRMSE = 1.0
-#: effects a multiple-shooting replay cannot see (each window starts at the measured position)
-SHOOTING_BLIND = ("sensor_offset",)
 
 
 @dataclasses.dataclass
@@ -173,17 +171,26 @@ class Identifier:
         nominal = full_nominal = self._nominal(ad, masks)
         mode = f"{getattr(ad, 'replay', 'open_loop').replace('_', '-')} replay of the whole record"
         floor = self._floor(ad, masks["validation"])
-        current, cands, ambiguous = self._select(ad, nominal, masks, floor)
+        forced = self.shooting not in ("auto", "off")
+        if forced and not ad.can_shoot():
+            raise ValueError(f"shooting={self.shooting!r}: this record's replay has no multiple shooting (needs an "
+                             "open-loop replay of a plain position output)")
+        cands: list[Candidate] = []
+        ambiguous: list[Ambiguity] = []
+        current = nominal
+        if not forced:
+            current, cands, ambiguous = self._select(ad, nominal, masks, floor)
         runaway = nominal.val_score > RUNAWAY_NRMSE and current.val_score > RUNAWAY_NRMSE
-        if self.shooting != "off" and ad.can_shoot() and (self.shooting != "auto" or runaway):
+        if forced or (self.shooting == "auto" and runaway and ad.can_shoot()):
             # the full replay ran away and no effect brought it back: select on windows started from the
             # measured state (truncated simulation error), where the least squares cannot stall on a drift
-            window = float(self.shooting) if self.shooting != "auto" else float(
-                np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2, 1.0))
+            window = float(self.shooting) if forced else float(np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2,
+                                                                        1.0))
             ad.set_shooting(window)
             mode = (f"multiple shooting: windows of {window:.3g} s, each started from the measured state "
-                    + (f"(the full open-loop replay ran away: validation NRMSE {nominal.val_score:.3g} nominal, "
-                       f"{current.val_score:.3g} with the effects it found)" if runaway else "(requested)"))
+                    + ("(requested)" if forced else
+                       f"(the full open-loop replay ran away: validation NRMSE {nominal.val_score:.3g} nominal, "
+                       f"{current.val_score:.3g} with the effects it found)"))
             nominal = self._nominal(ad, masks)
             current, more, ambiguous = self._select(ad, nominal, masks, floor)
             cands += more
@@ -200,16 +207,14 @@ class Identifier:
                 mode += (f"; the selected model still runs away in a full replay (validation NRMSE "
                          f"{refit.val_score:.3g}), so the held-out part is scored on windows too")
         self.result_ = self._score(record, ad, nominal, current, cands, masks, test_record)
-        self.result_.ambiguous = ambiguous
-        self.result_.replay_mode = mode
-        self.result_.noise_floor = floor
+        self.result_ = dataclasses.replace(self.result_, ambiguous=ambiguous, replay_mode=mode, noise_floor=floor)
         return self
 
     def _select(self, ad: Adapter, nominal: FittedModel, masks: dict[str, np.ndarray],
                 floor: float) -> tuple[FittedModel, list[Candidate], list[Ambiguity]]:
         """Forward selection with joint refits, the significance rules, look-alike ambiguity and pruning."""
-        names = [c for c in (self.candidates or ad.effects) if c in ad.effects
-                 and not (ad.shooting and c in SHOOTING_BLIND)]
+        seen = ad.observable_effects()
+        names = [c for c in (self.candidates or seen) if c in seen]
         current = nominal
         cands: list[Candidate] = []
         ambiguous: list[Ambiguity] = []
@@ -285,12 +290,11 @@ class Identifier:
         grid = [v for v in grid if p.lower + 0.02 * (p.upper - p.lower) < v < p.upper - 0.02 * (p.upper - p.lower)]
         if len(grid) < 2:
             return {}
-        others = {k2: q.typical for k2, q in zip(spec.keys, spec.params, strict=True) if k2 != k}
-        theta = {**{k2: np.full(len(grid), v) for k2, v in {**current.theta(), **others}.items()}, k: np.array(grid)}
-        y = ad.simulate(theta, len(grid))[mask]
-        sd = np.std(ad.measured[mask], axis=0) + 1e-300
-        sse = np.nansum((((y - ad.measured[mask][:, None, :]) / sd) ** 2), axis=(0, 2))
-        sse[~np.isfinite(sse)] = np.inf
+        prob = _Problem(ad, current.theta(), list(spec.keys), list(spec.params), mask)
+        rows = np.tile(prob.to_x(np.array([q.typical for q in spec.params])), (len(grid), 1))
+        i = list(spec.keys).index(k)
+        rows[:, i] = (np.array(grid) - prob.offs[i]) / prob.scale[i]
+        sse = np.sum(prob.batch(rows) ** 2, axis=1)  # the fit-part cost of each start, one batched replay
         return {k: float(grid[int(np.argmin(sse))])}
 
     def _judge(self, ad: Adapter, cand: Candidate, fm: FittedModel, current: FittedModel, floor: float) -> None:
