@@ -383,7 +383,8 @@ def draw_case(seed: int, effects: tuple[str, ...] = ()) -> Case:
     if m_m > 0:
         nominal["frac_m"] = m_m / m_nom
     # half the users of a voltage drive also give the back-EMF part of b (docs/measured-data.md), half do not
-    if mot["b_emf"] > 0 and np.random.default_rng([seed, 7919]).random() < 0.5:
+    # (a stream of its own, so that the coin is independent of the case's other draws)
+    if mot["b_emf"] > 0 and np.random.default_rng([seed, 7919, 1]).random() < 0.5:
         nominal["b_emf"] = mot["b_emf"]
     case = Case(seed, effects, axis, "rotational" if axis == "gear_motor" else "translational", vertical,
                 mot["amplifier"], mot["command"], rate, duration, loop, replay, kind, x0, gap0,

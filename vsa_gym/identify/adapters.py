@@ -71,7 +71,8 @@ class Adapter:
     def _sensor_effects(self) -> dict[str, EffectSpec]:
         y0 = self.measured[:, 0]
         scale = float(np.std(y0)) or float(np.max(np.abs(y0))) or 1.0
-        return sensor_specs(self.outputs[0].column, scale, self.dt, float(self.t[-1] - self.t[0]))
+        return sensor_specs(self.outputs[0].column, scale, self.dt, float(self.t[-1] - self.t[0]),
+                            self.outputs[0].resolution)
 
     def simulate(self, theta: Theta, n: int) -> np.ndarray:
         """Measured outputs ``(T, n, n_outputs)`` of ``n`` candidate models."""
@@ -160,6 +161,7 @@ class DriveAdapter(Adapter):
         self.x0[0] = self.x0[2] = pos0 or 0.0
         self.x0[1] = self.x0[3] = float(init.get("velocity", 0.0))
         self.x0[4] = float(self.params.k_u) * float(self.u[0])
+        self.start_force = None if init.get("force") is None else float(init["force"])
         starts = [int(a) for a in record.meta.get("segments", [0])]
         if not starts or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= T:
             raise ValueError(f"segments must be increasing row indices starting at 0 and below {T}, got {starts}")
@@ -292,15 +294,24 @@ class DriveAdapter(Adapter):
 
     def _start_states(self, P: np.ndarray, a: int, position: np.ndarray | None = None,
                       speed: np.ndarray | None = None) -> np.ndarray:
-        """Initial state of every row at segment start ``a``: the sidecar's (or the given ``position`` and
-        ``speed`` of load and motor side), with the drive force in equilibrium, ``k_u u_a - b_emf v``."""
+        """Initial state of every row at row ``a``.
+
+        A segment start takes the sidecar's state; its lagged drive force (``tau_e > 0``) is
+        ``initial_state.force`` if given (e.g. 0 for an amplifier switched on at the first sample),
+        else in equilibrium with the first input, ``k_u u_a - b_emf v``.  A shooting window starts
+        from the given ``position`` and ``speed`` of load and motor side, with the force in
+        equilibrium.
+        """
         x0 = np.repeat(self.x0[None, :], P.shape[0], axis=0)
         if position is not None:
             x0[:, 0] = x0[:, 2] = position
         if speed is not None:
             x0[:, 1] = x0[:, 3] = speed
         I = drive.PIDX
-        x0[:, 4] = P[:, I["k_u"]] * self.u[a] - P[:, I["b_emf"]] * x0[:, 3]
+        if position is None and self.start_force is not None:
+            x0[:, 4] = self.start_force
+        else:
+            x0[:, 4] = P[:, I["k_u"]] * self.u[a] - P[:, I["b_emf"]] * x0[:, 3]
         return x0
 
     def _fit_start_state(self, theta: Theta, P: np.ndarray, a: int, x0: np.ndarray) -> np.ndarray:

@@ -110,13 +110,18 @@ class MeasurementModel:
         return y + self.bias
 
 
-def sensor_specs(column: str, y_scale: float, dt: float, duration: float) -> dict[str, EffectSpec]:
-    """Measurement effects on the output ``column`` (``y_scale``: a typical output amplitude)."""
+def sensor_specs(column: str, y_scale: float, dt: float, duration: float,
+                 resolution: float = 0.0) -> dict[str, EffectSpec]:
+    """Measurement effects on the output ``column`` (``y_scale``: a typical output amplitude).
+
+    An offset below the sensor's ``resolution`` (one quantiser step) is within what the quantiser
+    model can be off by, so it is not named."""
     loc = f"sensor of {column}"
     return {
         "sensor_gain": EffectSpec("sensor_gain", loc, (ParamSpec("gain", "-", -0.3, 0.3, 0.0, 0.02, tolerance=0.01),)),
         "sensor_offset": EffectSpec("sensor_offset", loc,
-                                    (ParamSpec("offset", "", -0.5 * y_scale, 0.5 * y_scale, 0.0, 0.02 * y_scale),)),
+                                    (ParamSpec("offset", "", -0.5 * y_scale, 0.5 * y_scale, 0.0, 0.02 * y_scale,
+                                               tolerance=resolution),)),
         "sensor_delay": EffectSpec("sensor_delay", loc,
                                    (ParamSpec("delay", "s", 0.0, min(0.05 * duration, 50 * dt), 0.0, 2 * dt),)),
     }

@@ -8,9 +8,10 @@
    simulation-error least squares (scipy ``least_squares``, Jacobian from one batched
    replay per iteration), with 95 % confidence intervals from the Jacobian, inflated
    by the residual's lag-1 autocorrelation (effective sample size).
-3. Accept an effect only if (a) the validation error drops by ``margin``, (b) it removes
-   ``min_share`` of the misfit above the estimated noise floor, (c) BIC drops, (d) the CI of
-   its main parameter excludes "absent", (e) no shape parameter is stuck at a bound; every
+3. Accept an effect only if (a) the validation error drops by ``margin``, (b) a further effect
+   removes ``min_share_next`` of the misfit above the estimated noise floor, (c) BIC drops,
+   (d) the CI of its main parameter excludes "absent" and the parameter is beyond the nominal
+   model's tolerance, (e) no shape parameter is stuck at a bound; every
    candidate is refitted jointly with what is accepted, look-alikes side by side (ambiguous
    when they validate alike), and earlier effects the new set no longer needs are dropped
    (:mod:`vsa_gym.identify.selection`).  Then look for a further effect (up to ``max_effects``).
@@ -142,8 +143,9 @@ class Identifier:
     """Find the effect(s) a record demands (see the module docstring and :mod:`vsa_gym.identify.selection`).
 
     ``min_share``: share of the current model's excess validation misfit (above the noise floor) a
-    first effect must remove, ``min_share_next`` a further one; ``floor_factor``: no effect is added
-    to a model whose validation NRMSE is already within this factor of the noise floor;
+    first effect must remove (0: off; a first effect near the noise floor of a white-noise record is
+    real), ``min_share_next`` a further one; ``floor_factor``: no further effect is added to a model
+    whose validation NRMSE is already within this factor of the noise floor;
     ``ambiguity``: look-alikes validating within this relative difference of the best are reported
     as ambiguous; ``shooting``: ``"auto"`` (multiple shooting when a full open-loop replay runs
     away), ``"off"``, or a window length in seconds.
@@ -155,7 +157,7 @@ class Identifier:
     candidates: Sequence[str] | None = None
     max_nfev: int = 25
     replay: str | None = None
-    min_share: float = 0.3
+    min_share: float = 0.0
     min_share_next: float = 0.7
     floor_factor: float = 3.0
     ambiguity: float = 0.01
@@ -314,7 +316,7 @@ class Identifier:
         if cand.share < need:
             reasons.append(f"removes {100 * cand.share:.0f} % of the misfit above the noise floor "
                            f"(needs {100 * need:.0f} %)")
-        if current.val_score < self.floor_factor * floor:
+        if current.effects and current.val_score < self.floor_factor * floor:
             reasons.append(f"the model is already within {self.floor_factor:g}x the noise floor "
                            f"({current.val_score:.3g} vs {floor:.3g})")
         if not fm.bic < current.bic:

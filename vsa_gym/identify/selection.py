@@ -7,10 +7,11 @@ BIC on such residuals accepts almost anything (the samples are not independent),
 effect must also be *physically significant*:
 
 * **Excess share.**  The noise floor ``sigma_n`` of each output is estimated from the data
-  (:func:`noise_floor`); the misfit a model leaves above it is its *excess*.  A candidate must
-  remove at least ``min_share`` of the current model's excess validation misfit
-  (:func:`excess_share`), not merely a margin of the total.  The right effect removes most of it
-  (a planted effect is the dominant misfit); an effect that only soaks up mismatch removes little.
+  (:func:`noise_floor`); the misfit a model leaves above it is its *excess*.  A further effect must
+  remove a large share of the current model's excess validation misfit (:func:`excess_share`), not
+  merely a margin of the total, and none is added once the excess is within a few times the floor.
+  The right effect removes most of it (a planted effect is the dominant misfit); an effect that
+  only soaks up mismatch removes little.
 * **Joint refit.**  Every candidate is fitted together with everything already accepted and with
   the free nominal parameters, and after each acceptance the earlier effects are tested again: one
   that the new set no longer needs (validation no worse than ``margin`` without it) is dropped.
