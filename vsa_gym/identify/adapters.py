@@ -121,6 +121,11 @@ class DriveAdapter(Adapter):
         if self.params.b_emf > self.params.b:
             raise ValueError(f"model.params: b_emf = {self.params.b_emf:g} (back-EMF part of b) exceeds b = "
                              f"{self.params.b:g}; b is the whole viscous damping, back-EMF included")
+        # a voltage-driven motor with a winding lag whose sidecar does not split b: its viscous damping is
+        # taken as the back-EMF's (k_t k_e n^2 / R, which dominates a DC motor on a voltage amplifier) and
+        # acts through the lag; give b_emf (0 for none) to say otherwise
+        self.emf_is_b = ("voltage" in record.inputs and float(self.params.tau_e) > 0.0
+                         and "b_emf" not in model.get("params", {}) and "b_emf" not in model.get("free", {}))
         free = model.get("free", {})
         self.base = []
         for name, (lo, hi) in free.items():
@@ -150,6 +155,12 @@ class DriveAdapter(Adapter):
             self.ref = record.data[ctrl["reference"]].to_numpy(dtype=np.float64)
             ffc = ctrl.get("feedforward")
             self.ff = record.data[ffc].to_numpy(dtype=np.float64) if ffc else np.zeros(T)
+        # the position sensor a closed loop reads: the first position output (its location and quantiser bias)
+        self.loop_output = next((j for j, s in enumerate(self.outputs) if s.quantity == "position"), None)
+        loop_meta = record.meta["outputs"][self.outputs[self.loop_output].column] if self.loop_output is not None \
+            else {}
+        self.loop_at_motor = loop_meta.get("at", "motor") == "motor"
+        self.loop_bias = self.measurement[self.loop_output].bias if self.loop_output is not None else 0.0
         self.obs = [_DRIVE_OBS[s.quantity] if not (s.quantity == "position"
                                                     and record.meta["outputs"][s.column].get("at") == "motor") else 2
                     for s in self.outputs]
@@ -183,9 +194,11 @@ class DriveAdapter(Adapter):
         return other
 
     def _scales(self) -> None:
-        P = self.params.vector(1)[0]
-        xs = drive.simulate(self.params.vector(1), self.u, self.dt, x0=self.x0, fext=self.fext, ref=self.ref,
-                            ff=self.ff, controller=self.ctrl)[:, 0, :]
+        P1 = self.param_matrix({}, 1)
+        P = P1[0]
+        xs = drive.simulate(P1, self.u, self.dt, x0=self.x0, fext=self.fext, ref=self.ref,
+                            ff=self.ff, controller=self.ctrl, sensor_at_motor=self.loop_at_motor,
+                            sensor_bias=self.loop_bias)[:, 0, :]
         self.F_ref = float(np.max(np.abs(P[drive.PIDX["k_u"]] * xs[:, 4]))) or 1.0
         self.v_ref = float(np.max(np.abs(xs[:, 1]))) or 1.0
         self.x_ref = float(np.std(xs[:, 0])) or 1.0
@@ -235,8 +248,8 @@ class DriveAdapter(Adapter):
             eff["inertia_error"] = EffectSpec("inertia_error", "of the moving parts",
                                               (ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.05, tolerance=0.05),))
         if "F_0" not in free:
-            eff["force_offset"] = EffectSpec("force_offset", where, (ParamSpec("F_0", rot, -0.3 * F, 0.3 * F, 0.0,
-                                                                               0.02 * F),))
+            # up to the drive's peak force: a vertical axis' weight can take most of it
+            eff["force_offset"] = EffectSpec("force_offset", where, (ParamSpec("F_0", rot, -F, F, 0.0, 0.02 * F),))
         eff.update(self._sensor_effects())
         return eff
 
@@ -245,6 +258,8 @@ class DriveAdapter(Adapter):
         I = drive.PIDX
         for b in self.base:
             P[:, I[b.name]] = _get(theta, f"base.{b.name}", n, b.absent)
+        if self.emf_is_b:
+            P[:, I["b_emf"]] = P[:, I["b"]]
         P[:, I["F_c"]] += _get(theta, "coulomb_friction.F_c", n)
         P[:, I["F_s"]] += _get(theta, "stribeck_friction.F_s", n)
         if "stribeck_friction.v_s" in theta:
@@ -274,11 +289,24 @@ class DriveAdapter(Adapter):
         P[fh > 0, I["sigma_h"]] = fh[fh > 0] / np.maximum(x_h[fh > 0], 1e-12)
         return P
 
-    def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray) -> np.ndarray:
-        """Physical observables ``(b - a, n, n_outputs)`` of rows ``P`` over rows ``a:b`` from states ``x0``."""
+    def _loop_sensor(self, theta: Theta | None, n: int) -> np.ndarray | None:
+        """Each row's ``[gain, offset, delay]`` of the position sensor the closed loop reads (None: open loop).
+
+        The controller of a closed-loop record acts on what its sensor reads, so the sensor effects of
+        the position output act inside the loop, not only on the recorded output."""
+        if self.ctrl is None or self.loop_output is None or theta is None:
+            return None
+        return np.stack([_get(theta, "sensor_gain.gain", n), _get(theta, "sensor_offset.offset", n),
+                         _get(theta, "sensor_delay.delay", n)], axis=1)
+
+    def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray, theta: Theta | None = None) -> np.ndarray:
+        """Physical observables ``(b - a, n, n_outputs)`` of rows ``P`` over rows ``a:b`` from states ``x0``
+        (``theta``: the candidate's sensor terms, which a closed loop reads)."""
         y = drive.simulate(P, self.u[a:b], self.dt, x0=x0, fext=self.fext[a:b], ref=self.ref[a:b], ff=self.ff[a:b],
                            controller=self.ctrl,
-                           n_sub=drive.substeps(P, self.dt, vmax=getattr(self, "v_ref", 1.0) * 2))
+                           n_sub=drive.substeps(P, self.dt, vmax=getattr(self, "v_ref", 1.0) * 2),
+                           sensor_at_motor=self.loop_at_motor, sensor_bias=self.loop_bias,
+                           sensor=self._loop_sensor(theta, P.shape[0]))
         return y[:, :, self.obs]
 
     def _measure(self, theta: Theta, x: np.ndarray, a: int, b: int) -> np.ndarray:
@@ -426,13 +454,13 @@ class DriveAdapter(Adapter):
             x0 = self._start_states(P, a)
             if self.init_window:
                 x0 = self._fit_start_state(theta, P, a, x0)
-            out[a:b] = self._measure(theta, self._rollout(P, a, b, x0), a, b)
+            out[a:b] = self._measure(theta, self._rollout(P, a, b, x0, theta), a, b)
         return out
 
     def simulate_physical(self, theta: Theta, n: int) -> np.ndarray:
         """Physical outputs ``(T, n, n_outputs)`` before the sensors (segments from the sidecar's initial state)."""
         P = self.param_matrix(theta, n)
-        return np.concatenate([self._rollout(P, a, b, self._start_states(P, a)) for a, b in self.segments])
+        return np.concatenate([self._rollout(P, a, b, self._start_states(P, a), theta) for a, b in self.segments])
 
     def describe_model(self, theta: Mapping[str, float]) -> dict[str, Any]:
         """The identified drive as a :class:`DriveParams` dict (for rebuilding the simulator)."""

@@ -251,13 +251,35 @@ def _transmitted(P: np.ndarray, s: np.ndarray, u: float, two_mass: bool) -> floa
 
 
 @numba.njit(cache=True)
+def _sensed(xs: np.ndarray, k: int, dt: float, gain: float, offset: float, delay: float, bias: float) -> float:
+    """The loop's position sensor at sample ``k``: ``(1 + gain) x(t_k - delay) + offset + bias`` from the
+    sampled positions ``xs[:k + 1]`` (linear interpolation, held at the first sample before the start)."""
+    if delay <= 0.0:
+        x = xs[k]
+    else:
+        tau = k - delay / dt
+        if tau <= 0.0:
+            x = xs[0]
+        else:
+            j = int(np.floor(tau))
+            if j >= k:
+                x = xs[k]
+            else:
+                f = tau - j
+                x = (1.0 - f) * xs[j] + f * xs[j + 1]
+    return (1.0 + gain) * x + offset + bias
+
+
+@numba.njit(cache=True)
 def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarray, ref: np.ndarray,
-                    ff: np.ndarray, ctrl: np.ndarray, dt: float, n_sub: int) -> np.ndarray:
+                    ff: np.ndarray, ctrl: np.ndarray, sens: np.ndarray, dt: float, n_sub: int) -> np.ndarray:
     """Roll out ``n`` drives over ``T`` samples; returns observables ``(T, n, len(OBS))`` at the sample times.
 
-    ``ctrl = [mode, kp, kv, sat]``: mode 0 replays ``u`` open loop; mode 1 is the EMPS cascade
-    ``u_k = clip(kp kv (ref_k - q_k) - kv (q_k - q_{k-2}) / (2 dt), +-sat) + ff_k`` on the simulated
-    motor position ``q``.
+    ``ctrl = [mode, kp, kv, sat, at_motor, bias]``: mode 0 replays ``u`` open loop; mode 1 is the EMPS
+    cascade ``u_k = clip(kp kv (ref_k - q_k) - kv (q_k - q_{k-2}) / (2 dt), +-sat) + ff_k`` on the
+    loop's sensor ``q_k = (1 + gain) x(t_k - delay) + offset + bias``, where ``x`` is the motor
+    position (``at_motor = 1``) or the load's, ``bias`` the sensor's known mean error (a floor
+    quantiser's -resolution/2) and ``sens[i] = [gain, offset, delay]`` row ``i``'s sensor terms.
     """
     n = P.shape[0]
     T = u.shape[0]
@@ -268,15 +290,18 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
     k3 = np.empty(N_STATE)
     k4 = np.empty(N_STATE)
     tmp = np.empty(N_STATE)
+    xs = np.empty(T)
+    ix = 2 if ctrl[4] == 1.0 else 0
     for i in range(n):
         Pi = P[i]
         two_mass = Pi[9] > 0.0 or Pi[12] > 0.0
         s = x0[i].copy()
-        q1 = s[2]
-        q2 = s[2]
+        q1 = 0.0
+        q2 = 0.0
         for k in range(T):
             if ctrl[0] == 1.0:
-                q = s[2]
+                xs[k] = s[ix]
+                q = _sensed(xs, k, dt, sens[i, 0], sens[i, 1], sens[i, 2], ctrl[5])
                 if k == 0:
                     q1 = q
                     q2 = q
@@ -342,16 +367,24 @@ def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
 
 def simulate(P: np.ndarray, u: np.ndarray, dt: float, *, x0: np.ndarray | None = None,
              fext: np.ndarray | None = None, ref: np.ndarray | None = None, ff: np.ndarray | None = None,
-             controller: tuple[float, float, float] | None = None, n_sub: int | None = None) -> np.ndarray:
-    """Batched roll-out (see :func:`simulate_kernel`); ``P`` is ``(n, len(PNAMES))``, ``u`` is ``(T,)``."""
+             controller: tuple[float, float, float] | None = None, n_sub: int | None = None,
+             sensor_at_motor: bool = True, sensor_bias: float = 0.0, sensor: np.ndarray | None = None) -> np.ndarray:
+    """Batched roll-out (see :func:`simulate_kernel`); ``P`` is ``(n, len(PNAMES))``, ``u`` is ``(T,)``.
+
+    With a ``controller`` ``(kp, kv, saturation)`` the loop reads the position sensor at the motor
+    (``sensor_at_motor``) or at the load, with the known ``sensor_bias`` and each row's sensor terms
+    ``sensor (n, 3) = [gain, offset, delay]`` (default: none)."""
     P = np.ascontiguousarray(np.atleast_2d(P), dtype=np.float64)
     u = np.ascontiguousarray(u, dtype=np.float64)
     T, n = u.shape[0], P.shape[0]
     z = np.zeros(T)
     x0 = np.zeros((n, N_STATE)) if x0 is None else np.ascontiguousarray(np.broadcast_to(x0, (n, N_STATE)),
                                                                          dtype=np.float64)
-    ctrl = np.zeros(4) if controller is None else np.array([1.0, *controller])
+    ctrl = (np.zeros(6) if controller is None
+            else np.array([1.0, *controller, 1.0 if sensor_at_motor else 0.0, float(sensor_bias)]))
+    sens = (np.zeros((n, 3)) if sensor is None
+            else np.ascontiguousarray(np.broadcast_to(sensor, (n, 3)), dtype=np.float64))
     ns = substeps(P, dt) if n_sub is None else int(n_sub)
     return simulate_kernel(P, x0.copy(), u, z if fext is None else np.ascontiguousarray(fext, dtype=np.float64),
                            z if ref is None else np.ascontiguousarray(ref, dtype=np.float64),
-                           z if ff is None else np.ascontiguousarray(ff, dtype=np.float64), ctrl, float(dt), ns)
+                           z if ff is None else np.ascontiguousarray(ff, dtype=np.float64), ctrl, sens, float(dt), ns)

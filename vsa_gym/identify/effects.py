@@ -115,7 +115,8 @@ def sensor_specs(column: str, y_scale: float, dt: float, duration: float,
     """Measurement effects on the output ``column`` (``y_scale``: a typical output amplitude).
 
     An offset below the sensor's ``resolution`` (one quantiser step) is within what the quantiser
-    model can be off by, so it is not named."""
+    model can be off by, so it is not named; a delay below half a sample period is within the sample
+    clock's own uncertainty (a sample stands for an interval of ``dt``), so it is not named either."""
     loc = f"sensor of {column}"
     return {
         "sensor_gain": EffectSpec("sensor_gain", loc, (ParamSpec("gain", "-", -0.3, 0.3, 0.0, 0.02, tolerance=0.01),)),
@@ -123,7 +124,8 @@ def sensor_specs(column: str, y_scale: float, dt: float, duration: float,
                                     (ParamSpec("offset", "", -0.5 * y_scale, 0.5 * y_scale, 0.0, 0.02 * y_scale,
                                                tolerance=resolution),)),
         "sensor_delay": EffectSpec("sensor_delay", loc,
-                                   (ParamSpec("delay", "s", 0.0, min(0.05 * duration, 50 * dt), 0.0, 2 * dt),)),
+                                   (ParamSpec("delay", "s", 0.0, min(0.05 * duration, 50 * dt), 0.0, 2 * dt,
+                                              tolerance=0.5 * dt),)),
     }
 
 
