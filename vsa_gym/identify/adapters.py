@@ -93,6 +93,10 @@ def _get(theta: Theta, key: str, n: int, default: float = 0.0) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- generic drive
+#: nuisance parameter of a drive whose start force is not declared: the share of the settled drive force at t0
+START_SHARE = "start_share"
+#: nuisance parameter of a voltage input with a lag whose sidecar does not give b_emf: the back-EMF share of b
+EMF_SHARE = "emf_share"
 _DRIVE_OBS = {"position": 0, "velocity": 1, "speed_abs": 1, "force": 3, "controller_output": 4}
 
 
@@ -121,11 +125,6 @@ class DriveAdapter(Adapter):
         if self.params.b_emf > self.params.b:
             raise ValueError(f"model.params: b_emf = {self.params.b_emf:g} (back-EMF part of b) exceeds b = "
                              f"{self.params.b:g}; b is the whole viscous damping, back-EMF included")
-        # a voltage-driven motor with a winding lag whose sidecar does not split b: its viscous damping is
-        # taken as the back-EMF's (k_t k_e n^2 / R, which dominates a DC motor on a voltage amplifier) and
-        # acts through the lag; give b_emf (0 for none) to say otherwise
-        self.emf_is_b = ("voltage" in record.inputs and float(self.params.tau_e) > 0.0
-                         and "b_emf" not in model.get("params", {}) and "b_emf" not in model.get("free", {}))
         free = model.get("free", {})
         self.base = []
         for name, (lo, hi) in free.items():
@@ -136,6 +135,21 @@ class DriveAdapter(Adapter):
                                  "stiff); fix tau_e = 0 in model.params for a drive without lag")
             v = float(getattr(self.params, name))
             self.base.append(ParamSpec(name, "", float(lo), float(hi), v, max(abs(v), 1e-9)))
+        init = record.meta.get("initial_state", {})
+        if (float(self.params.tau_e) > 0.0 or "tau_e" in free) and init.get("force") is None \
+                and not init.get("fit_window"):
+            # the lagged drive force at the start is not known: the amplifier may have been on and settled
+            # (share 1, the equilibrium with the first input) or switched on with the record (0); an
+            # open-loop replay that starts from the wrong one drifts by a constant position offset ever
+            # after, so the share is fitted with every model, like a free nominal parameter ("settled" or a
+            # number in the sidecar says which)
+            self.base.append(ParamSpec(START_SHARE, "-", 0.0, 1.0, 0.5, 1.0))
+        if ("voltage" in record.inputs and (float(self.params.tau_e) > 0.0 or "tau_e" in free)
+                and "b_emf" not in model.get("params", {}) and "b_emf" not in free):
+            # a voltage input with a lag: a voltage drive, whose back-EMF damping (part of b) acts through the
+            # winding's L / R, or a current amplifier commanded in volts, whose loop rejects the back-EMF; a
+            # sidecar that does not split b leaves it open, so the back-EMF share of b is fitted
+            self.base.append(ParamSpec(EMF_SHARE, "-", 0.0, 1.0, 0.5, 1.0))
         ctrl = record.controller
         self.replay = replay or record.meta.get("replay", "closed_loop" if ctrl else "open_loop")
         if self.replay not in ("open_loop", "closed_loop"):
@@ -172,7 +186,11 @@ class DriveAdapter(Adapter):
         self.x0[0] = self.x0[2] = pos0 or 0.0
         self.x0[1] = self.x0[3] = float(init.get("velocity", 0.0))
         self.x0[4] = float(self.params.k_u) * float(self.u[0])
-        self.start_force = None if init.get("force") is None else float(init["force"])
+        force0 = init.get("force")
+        if force0 is not None and force0 != "settled" and not isinstance(force0, int | float):
+            raise ValueError(f"initial_state.force must be a number (the drive force at the start) or 'settled' "
+                             f"(in equilibrium with the first input), got {force0!r}")
+        self.start_force = None if force0 in (None, "settled") else float(force0)
         starts = [int(a) for a in record.meta.get("segments", [0])]
         if not starts or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= T:
             raise ValueError(f"segments must be increasing row indices starting at 0 and below {T}, got {starts}")
@@ -257,9 +275,10 @@ class DriveAdapter(Adapter):
         P = self.params.vector(n)
         I = drive.PIDX
         for b in self.base:
-            P[:, I[b.name]] = _get(theta, f"base.{b.name}", n, b.absent)
-        if self.emf_is_b:
-            P[:, I["b_emf"]] = P[:, I["b"]]
+            if b.name in I:
+                P[:, I[b.name]] = _get(theta, f"base.{b.name}", n, b.absent)
+        if any(b.name == EMF_SHARE for b in self.base):
+            P[:, I["b_emf"]] = P[:, I["b"]] * _get(theta, f"base.{EMF_SHARE}", n, 0.0)
         P[:, I["F_c"]] += _get(theta, "coulomb_friction.F_c", n)
         P[:, I["F_s"]] += _get(theta, "stribeck_friction.F_s", n)
         if "stribeck_friction.v_s" in theta:
@@ -321,12 +340,13 @@ class DriveAdapter(Adapter):
         return out
 
     def _start_states(self, P: np.ndarray, a: int, position: np.ndarray | None = None,
-                      speed: np.ndarray | None = None) -> np.ndarray:
+                      speed: np.ndarray | None = None, theta: Theta | None = None) -> np.ndarray:
         """Initial state of every row at row ``a``.
 
         A segment start takes the sidecar's state; its lagged drive force (``tau_e > 0``) is
         ``initial_state.force`` if given (e.g. 0 for an amplifier switched on at the first sample),
-        else in equilibrium with the first input, ``k_u u_a - b_emf v``.  A shooting window starts
+        else the fitted share ``base.start_share`` (0: off, 1: settled; 1 where not fitted) of the
+        equilibrium with the first input, ``k_u u_a - b_emf v``.  A shooting window starts
         from the given ``position`` and ``speed`` of load and motor side, with the force in
         equilibrium.
         """
@@ -340,6 +360,8 @@ class DriveAdapter(Adapter):
             x0[:, 4] = self.start_force
         else:
             x0[:, 4] = P[:, I["k_u"]] * self.u[a] - P[:, I["b_emf"]] * x0[:, 3]
+            if position is None and theta is not None:
+                x0[:, 4] *= _get(theta, f"base.{START_SHARE}", P.shape[0], 1.0)
         return x0
 
     def _fit_start_state(self, theta: Theta, P: np.ndarray, a: int, x0: np.ndarray) -> np.ndarray:
@@ -451,7 +473,7 @@ class DriveAdapter(Adapter):
                 out[a:b] = self._measure(theta, self._rollout(P, a, b, self._shoot_states(theta, P, a)), a, b)
             return out
         for a, b in self.segments:
-            x0 = self._start_states(P, a)
+            x0 = self._start_states(P, a, theta=theta)
             if self.init_window:
                 x0 = self._fit_start_state(theta, P, a, x0)
             out[a:b] = self._measure(theta, self._rollout(P, a, b, x0, theta), a, b)
@@ -460,7 +482,8 @@ class DriveAdapter(Adapter):
     def simulate_physical(self, theta: Theta, n: int) -> np.ndarray:
         """Physical outputs ``(T, n, n_outputs)`` before the sensors (segments from the sidecar's initial state)."""
         P = self.param_matrix(theta, n)
-        return np.concatenate([self._rollout(P, a, b, self._start_states(P, a), theta) for a, b in self.segments])
+        return np.concatenate([self._rollout(P, a, b, self._start_states(P, a, theta=theta), theta)
+                               for a, b in self.segments])
 
     def describe_model(self, theta: Mapping[str, float]) -> dict[str, Any]:
         """The identified drive as a :class:`DriveParams` dict (for rebuilding the simulator)."""
