@@ -23,7 +23,8 @@ With a compliant transmission or backlash the inertia splits into a motor side
     dz(d) = d - (sqrt((d + g)^2 + e^2) - sqrt((d - g)^2 + e^2)) / 2,   e = 0.05 g
 
 ``dz`` is a dead zone of total width ``backlash`` whose corners are rounded over ``e``
-(``dz = d`` without backlash).  With a compliance (``k_c > 0``): ``k = k_c``, ``c = c_c``.
+(``dz = d`` without backlash).  A contact across the gap is one-sided: the teeth push, never
+pull, so where the damping term of a separating contact would reverse the force, ``F_t = 0``.  With a compliance (``k_c > 0``): ``k = k_c``, ``c = c_c``.
 With backlash alone the teeth meet through a stiff, well damped contact that is not a
 free parameter, so that backlash adds only the gap: ``k = k_contact`` (default: a
 contact mode of :data:`F_CONTACT` = 50 Hz on the reduced mass ``m_r = frac_m (1 - frac_m) m``,
@@ -173,7 +174,11 @@ def _tforce(P: np.ndarray, d: float, dv: float) -> float:
         r2 = np.sqrt((d - g) ** 2 + e2)
         dz = d - 0.5 * (r1 - r2)
         ddz = 1.0 - 0.5 * ((d + g) / r1 - (d - g) / r2)
-        return k * dz + c * dv * ddz
+        f = k * dz + c * dv * ddz
+        # the teeth push, never pull: a separating contact whose damping would pull carries no force
+        if f * dz < 0.0:
+            return 0.0
+        return f
     return k * d + c * dv
 
 
