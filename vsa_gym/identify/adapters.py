@@ -266,8 +266,12 @@ class DriveAdapter(Adapter):
             eff["inertia_error"] = EffectSpec("inertia_error", "of the moving parts",
                                               (ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.05, tolerance=0.05),))
         if "F_0" not in free:
-            # up to the drive's peak force: a vertical axis' weight can take most of it
-            eff["force_offset"] = EffectSpec("force_offset", where, (ParamSpec("F_0", rot, -F, F, 0.0, 0.02 * F),))
+            # up to the drive's peak force, replayed or recorded (a closed loop's recorded command holds the
+            # weight of a vertical axis, which the nominal replay does not): the weight can take most of it
+            F_max = max(F, float(np.max(np.abs(self.params.k_u * self.u))))
+            # below 1 % of the peak drive force it is within an amplifier's zero offset (a per cent of full scale)
+            eff["force_offset"] = EffectSpec("force_offset", where, (ParamSpec("F_0", rot, -F_max, F_max, 0.0,
+                                                                               0.02 * F, tolerance=0.01 * F),))
         eff.update(self._sensor_effects())
         return eff
 

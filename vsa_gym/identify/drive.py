@@ -24,7 +24,8 @@ With a compliant transmission or backlash the inertia splits into a motor side
 
 ``dz`` is a dead zone of total width ``backlash`` whose corners are rounded over ``e``
 (``dz = d`` without backlash).  A contact across the gap is one-sided: the teeth push, never
-pull, so where the damping term of a separating contact would reverse the force, ``F_t = 0``.  With a compliance (``k_c > 0``): ``k = k_c``, ``c = c_c``.
+pull, so where the damping term of a separating contact would reverse the force, ``F_t = 0``.
+With a compliance (``k_c > 0``): ``k = k_c``, ``c = c_c``.
 With backlash alone the teeth meet through a stiff, well damped contact that is not a
 free parameter, so that backlash adds only the gap: ``k = k_contact`` (default: a
 contact mode of :data:`F_CONTACT` = 50 Hz on the reduced mass ``m_r = frac_m (1 - frac_m) m``,
