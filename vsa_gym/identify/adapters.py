@@ -18,6 +18,8 @@ from vsa_gym.identify.effects import EffectSpec, MeasurementModel, ParamSpec, se
 from vsa_gym.identify.record import Record, Signal
 
 Theta = Mapping[str, np.ndarray]
+#: the sensor effects' parameters in the order of :meth:`MeasurementModel.apply` (gain, offset, delay)
+SENSOR_KEYS: tuple[str, ...] = ("sensor_gain.gain", "sensor_offset.offset", "sensor_delay.delay")
 
 
 class Adapter:
@@ -76,14 +78,15 @@ class Adapter:
 
     def simulate(self, theta: Theta, n: int) -> np.ndarray:
         """Measured outputs ``(T, n, n_outputs)`` of ``n`` candidate models."""
-        x = self.simulate_physical(theta, n)
+        return self._measure(theta, self.simulate_physical(theta, n), 0, len(self.t))
+
+    def _measure(self, theta: Theta, x: np.ndarray, a: int, b: int) -> np.ndarray:
+        """The sensors (measurement model, and the sensor effects of the first output) applied to physical
+        outputs ``x`` of rows ``a:b``."""
         out = np.empty_like(x)
         for j, mm in enumerate(self.measurement):
-            if j == 0:
-                out[:, :, j] = mm.apply(self.t, x[:, :, j], theta.get("sensor_gain.gain"),
-                                        theta.get("sensor_offset.offset"), theta.get("sensor_delay.delay"))
-            else:
-                out[:, :, j] = mm.apply(self.t, x[:, :, j])
+            terms = [theta.get(k) for k in SENSOR_KEYS] if j == 0 else []
+            out[:, :, j] = mm.apply(self.t[a:b], x[:, :, j], *terms)
         return out
 
 
@@ -136,16 +139,20 @@ class DriveAdapter(Adapter):
             v = float(getattr(self.params, name))
             self.base.append(ParamSpec(name, "", float(lo), float(hi), v, max(abs(v), 1e-9)))
         init = record.meta.get("initial_state", {})
-        if (float(self.params.tau_e) > 0.0 or "tau_e" in free) and init.get("force") is None \
-                and not init.get("fit_window"):
+        force0 = init.get("force")
+        if force0 is not None and force0 != "settled" and not isinstance(force0, int | float):
+            raise ValueError(f"initial_state.force must be a number (the drive force at the start) or 'settled' "
+                             f"(in equilibrium with the first input), got {force0!r}")
+        self.start_force = None if force0 in (None, "settled") else float(force0)
+        lagged = float(self.params.tau_e) > 0.0 or "tau_e" in free
+        if lagged and force0 is None and not init.get("fit_window"):
             # the lagged drive force at the start is not known: the amplifier may have been on and settled
             # (share 1, the equilibrium with the first input) or switched on with the record (0); an
             # open-loop replay that starts from the wrong one drifts by a constant position offset ever
             # after, so the share is fitted with every model, like a free nominal parameter ("settled" or a
             # number in the sidecar says which)
             self.base.append(ParamSpec(START_SHARE, "-", 0.0, 1.0, 0.5, 1.0))
-        if ("voltage" in record.inputs and (float(self.params.tau_e) > 0.0 or "tau_e" in free)
-                and "b_emf" not in model.get("params", {}) and "b_emf" not in free):
+        if "voltage" in record.inputs and lagged and "b_emf" not in model.get("params", {}) and "b_emf" not in free:
             # a voltage input with a lag: a voltage drive, whose back-EMF damping (part of b) acts through the
             # winding's L / R, or a current amplifier commanded in volts, whose loop rejects the back-EMF; a
             # sidecar that does not split b leaves it open, so the back-EMF share of b is fitted
@@ -169,16 +176,14 @@ class DriveAdapter(Adapter):
             self.ref = record.data[ctrl["reference"]].to_numpy(dtype=np.float64)
             ffc = ctrl.get("feedforward")
             self.ff = record.data[ffc].to_numpy(dtype=np.float64) if ffc else np.zeros(T)
-        # the position sensor a closed loop reads: the first position output (its location and quantiser bias)
-        self.loop_output = next((j for j, s in enumerate(self.outputs) if s.quantity == "position"), None)
-        loop_meta = record.meta["outputs"][self.outputs[self.loop_output].column] if self.loop_output is not None \
-            else {}
-        self.loop_at_motor = loop_meta.get("at", "motor") == "motor"
-        self.loop_bias = self.measurement[self.loop_output].bias if self.loop_output is not None else 0.0
         self.obs = [_DRIVE_OBS[s.quantity] if not (s.quantity == "position"
                                                     and record.meta["outputs"][s.column].get("at") == "motor") else 2
                     for s in self.outputs]
-        init = record.meta.get("initial_state", {})
+        # the position sensor a closed loop reads: the first position output, where it sits (the state column
+        # it records) and its quantiser's bias; a record without one leaves the loop on the motor position
+        self.loop_output = next((j for j, s in enumerate(self.outputs) if s.quantity == "position"), None)
+        self.loop_at_motor = self.loop_output is None or self.obs[self.loop_output] == 2
+        self.loop_bias = self.measurement[self.loop_output].bias if self.loop_output is not None else 0.0
         pos0 = init.get("position")
         if pos0 is None and "position" in record.outputs:
             pos0 = float(record.output("position")[0])
@@ -186,11 +191,6 @@ class DriveAdapter(Adapter):
         self.x0[0] = self.x0[2] = pos0 or 0.0
         self.x0[1] = self.x0[3] = float(init.get("velocity", 0.0))
         self.x0[4] = float(self.params.k_u) * float(self.u[0])
-        force0 = init.get("force")
-        if force0 is not None and force0 != "settled" and not isinstance(force0, int | float):
-            raise ValueError(f"initial_state.force must be a number (the drive force at the start) or 'settled' "
-                             f"(in equilibrium with the first input), got {force0!r}")
-        self.start_force = None if force0 in (None, "settled") else float(force0)
         starts = [int(a) for a in record.meta.get("segments", [0])]
         if not starts or starts[0] != 0 or np.any(np.diff(starts) <= 0) or starts[-1] >= T:
             raise ValueError(f"segments must be increasing row indices starting at 0 and below {T}, got {starts}")
@@ -319,8 +319,7 @@ class DriveAdapter(Adapter):
         the position output act inside the loop, not only on the recorded output."""
         if self.ctrl is None or self.loop_output is None or theta is None:
             return None
-        return np.stack([_get(theta, "sensor_gain.gain", n), _get(theta, "sensor_offset.offset", n),
-                         _get(theta, "sensor_delay.delay", n)], axis=1)
+        return np.stack([_get(theta, k, n) for k in SENSOR_KEYS], axis=1)
 
     def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray, theta: Theta | None = None) -> np.ndarray:
         """Physical observables ``(b - a, n, n_outputs)`` of rows ``P`` over rows ``a:b`` from states ``x0``
@@ -331,17 +330,6 @@ class DriveAdapter(Adapter):
                            sensor_at_motor=self.loop_at_motor, sensor_bias=self.loop_bias,
                            sensor=self._loop_sensor(theta, P.shape[0]))
         return y[:, :, self.obs]
-
-    def _measure(self, theta: Theta, x: np.ndarray, a: int, b: int) -> np.ndarray:
-        """The sensors (measurement model and sensor effects) applied to physical outputs ``x`` of rows ``a:b``."""
-        out = np.empty_like(x)
-        for j, mm in enumerate(self.measurement):
-            if j == 0:
-                out[:, :, j] = mm.apply(self.t[a:b], x[:, :, j], theta.get("sensor_gain.gain"),
-                                        theta.get("sensor_offset.offset"), theta.get("sensor_delay.delay"))
-            else:
-                out[:, :, j] = mm.apply(self.t[a:b], x[:, :, j])
-        return out
 
     def _start_states(self, P: np.ndarray, a: int, position: np.ndarray | None = None,
                       speed: np.ndarray | None = None, theta: Theta | None = None) -> np.ndarray:
@@ -462,11 +450,10 @@ class DriveAdapter(Adapter):
 
     def _shoot_states(self, theta: Theta, P: np.ndarray, a: int) -> np.ndarray:
         n = P.shape[0]
-        gain = 1.0 + _get(theta, "sensor_gain.gain", n)
-        delay = _get(theta, "sensor_delay.delay", n)
+        gain, offset, delay = (_get(theta, k, n) for k in SENSOR_KEYS)
         ta = self.t[a] + delay
-        raw = np.interp(ta, self.t, self._x_meas) - self.measurement[0].bias - _get(theta, "sensor_offset.offset", n)
-        return self._start_states(P, a, raw / gain, np.interp(ta, self.t, self._v_meas) / gain)
+        raw = np.interp(ta, self.t, self._x_meas) - self.measurement[0].bias - offset
+        return self._start_states(P, a, raw / (1.0 + gain), np.interp(ta, self.t, self._v_meas) / (1.0 + gain))
 
     def simulate(self, theta: Theta, n: int) -> np.ndarray:
         """Measured outputs ``(T, n, n_outputs)``; each segment (or shooting window) is replayed on its own."""
