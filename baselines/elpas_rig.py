@@ -28,7 +28,11 @@ from vsa_gym.envs.elpas_force_tracking import ForceTrackingTask
 
 
 class RigExperimentTask(ForceTrackingTask):
-    """:class:`ForceTrackingTask` with prescribed ``F_ref[k]`` and ``alpha[k]`` per row, ``(n, T + 1)``."""
+    """:class:`ForceTrackingTask` with prescribed ``F_ref[k]`` and ``alpha[k]`` per row, ``(n, T + 1)``.
+
+    The step is the task's own compiled step reading the tables (``prescribed``); this class only starts the
+    rows at rest at ``gamma0`` and ``alpha[:, 0]`` instead of drawing them.
+    """
 
     def __init__(self, f_ref: np.ndarray, alpha: np.ndarray, gamma0: np.ndarray, **kwargs: Any) -> None:
         f_ref, alpha = np.atleast_2d(f_ref), np.atleast_2d(alpha)
@@ -37,32 +41,17 @@ class RigExperimentTask(ForceTrackingTask):
         kwargs.setdefault("control_mode", "current")
         # the observation clips force_ref to force_range: widen it to the whole actuator range
         kwargs.setdefault("force_range", (1000.0, 4500.0))
-        super().__init__(f_ref.shape[0], **kwargs)
-        self.f_traj, self.alpha_traj = f_ref.astype(np.float64), alpha.astype(np.float64)
+        super().__init__(f_ref.shape[0], prescribed=(f_ref, alpha), **kwargs)
+        self.f_traj, self.alpha_traj = self.tables[0], self.tables[1]
         self.gamma0 = np.broadcast_to(np.asarray(gamma0, dtype=np.float64), (self.n,)).copy()
-        self.k = 0
 
     def _reset_rows(self, rows: np.ndarray) -> None:
         self._reset_drive(rows)
         for i in rows:
             self.s["x"][i] = em.initial_state_rig(self.row_params[int(i)], 1, gamma=self.gamma0[i],
                                                   alpha=self.alpha_traj[i, 0])[0]
-        self.k = 0
         self.s["f_ref"][rows] = self.f_traj[rows, 0]
         self._reset_sensors(rows)
-
-    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
-        self.k += 1
-        e_el = self._physics(a, self.alpha_traj[:, self.k])
-        charged, info = self._energy_info(e_el)
-        F = em.actuator_force_of(self.params, self.s["x"])
-        margins = self._drive_margins(np.arange(self.n))
-        fail = (margins["margin_gamma_stop"] <= 0) | (margins["margin_i2t"] <= 0)
-        terms = {"force": -((F - self.s["f_ref"]) / self.force_scale) ** 2, "energy": -self.w_energy * charged,
-                 "failure": np.where(fail, -self.failure_penalty, 0.0)}
-        info.update(margins)
-        self.s["f_ref"] = self.f_traj[:, self.k]
-        return terms, fail, info
 
 
 def run_rig(policy: Callable[[np.ndarray], np.ndarray], f_ref: np.ndarray, alpha: np.ndarray,

@@ -241,21 +241,6 @@ class ElpasTask(CompiledStepTask):
         self.s["vel"][rows] = 0.0
         self._read_analog(rows)
 
-    # ------------------------------------------------------------------ physics
-    def _physics(self, a: np.ndarray, second_end: np.ndarray) -> np.ndarray:
-        """One control step; ``second_end`` is alpha (rig) or road height (vehicle) at the end. Returns E_el (J).
-
-        The drive, the core's step, the I^2 t state and the encoders run in one compiled call
-        (:func:`_drive_row`); the analog readings (with their noise draws) follow in Python.
-        """
-        s = self.s
-        e_el, F, finite = _drive_rows(s["x"], np.ascontiguousarray(a[:, 0]),
-                                      np.ascontiguousarray(second_end, dtype=np.float64), self._param_matrix(),
-                                      s["pi_int"], s["i2t"], s["meas"], s["vel"], self._cfg)
-        self._check_finite(finite)
-        self._read_analog(self._all_rows, F)
-        return e_el
-
     def _check_finite(self, finite: bool) -> None:
         if not finite and self.vehicle:
             raise ValueError("step_vehicle: the state became non-finite (check inputs and parameters)")
@@ -271,13 +256,13 @@ class ElpasTask(CompiledStepTask):
         return self._kernels[self._parallel](a, *self._kernel_args(), out)
 
     def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
-        """Python part after the compiled step (random draws in the numpy path's order; ``renew``: some row is
+        """Python part after the compiled step (the random draws after the noise; ``renew``: some row is
         flagged in ``out[OUT_NEW_SEGMENT]``); returns the observation channels after the common ones
         (``_obs_rows``'s ``extra``)."""
         raise NotImplementedError
 
     def _kernel_step(self, action: Any) -> np.ndarray:
-        """The compiled :meth:`BatchedTask.step` up to ``info``; returns ``out`` ``(n_out, n)`` (see ``OUT_*``)."""
+        """The compiled step up to ``info``; returns ``out`` ``(n_out, n)`` (see ``OUT_*``)."""
         out, status = self._compiled_call(action, N_OUT_TAIL)
         self._check_finite(status != STATUS_BAD_STATE)
         if self._analog_noisy:
@@ -291,21 +276,11 @@ class ElpasTask(CompiledStepTask):
             self._record(self._all_rows)
         return out
 
-    def _energy_info(self, e_el: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        charged = self.energy_cost_basis(e_el[:, None])
-        self.s["e_el"] += e_el
-        self.s["e_charged"] += charged
-        self.s["p_last"][:] = e_el / self.control_dt
-        return charged, {"energy_el": e_el.copy(), "energy_charged": charged,
-                         "energy_el_total": self.s["e_el"].copy(), "energy_charged_total": self.s["e_charged"].copy(),
-                         "power_el": e_el / self.control_dt}
-
     def _drive_margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
-        p = self.params
-        x = self.s["x"][rows]
-        lim = i2t_limit(self._col(p.motor.I_max)[rows], self.i_nominal, self.i2t_trip_s)
-        return {"margin_gamma_stop": self._col(p.cone.gamma_max)[rows] - np.abs(x[:, em.GAMMA]),
-                "margin_i2t": 1.0 - self.s["i2t"][rows] / lim}
+        """``margin_gamma_stop`` and ``margin_i2t`` of ``rows`` (the compiled step's :func:`_drive_margins_row`)."""
+        mg = _drive_margins_of(self.s["x"], self.s["i2t"], self._param_matrix(), self._cfg,
+                               np.asarray(rows, dtype=np.intp))
+        return {"margin_gamma_stop": mg[:, 0], "margin_i2t": mg[:, 1]}
 
     def _reset_drive(self, rows: np.ndarray) -> None:
         for k in ("pi_int", "i2t", "e_el", "e_charged", "p_last"):
@@ -343,7 +318,7 @@ class ElpasTask(CompiledStepTask):
 
 
 # ---------------------------------------------------------------------------- compiled per-step drive
-# One row of ElpasTask._physics + _update_sensors + the I^2 t state, element by element: the core's compiled
+# One row's drive, core step, sensors and I^2 t state, element by element: the core's compiled
 # per-row step (model._advance_row, the same equations as step_rig/step_vehicle), the PI current loop with the
 # operations of its numpy form, sensing.i2t_update / update_velocity, and the encoders' quantisers of
 # physics.sensors (IncrementalEncoder / AbsoluteEncoder.measure; step 0: encoder disabled, exact angle).
@@ -429,18 +404,12 @@ def _drive_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarray, cf
 
 
 @numba.njit(cache=True)
-def _drive_rows(x: np.ndarray, cmd: np.ndarray, second_end: np.ndarray, P: np.ndarray, pi_int: np.ndarray,
-                i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray, cfg: np.ndarray) -> tuple[np.ndarray, np.ndarray,
-                                                                                                bool]:
-    """:func:`_drive_row` for every row: ``(E_el, F_act, all finite)``."""
-    n = x.shape[0]
-    e_el = np.empty(n)
-    F = np.empty(n)
-    ok = True
-    for i in range(n):
-        e_el[i], F[i], fin = _drive_row(x, i, cmd[i], second_end[i], P, pi_int, i2t, meas, vel, cfg)
-        ok = ok and fin
-    return e_el, F, ok
+def _drive_margins_of(x: np.ndarray, i2t: np.ndarray, P: np.ndarray, cfg: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """:func:`_drive_margins_row` of ``rows``, ``(len(rows), 2)``."""
+    out = np.empty((rows.shape[0], 2))
+    for j in range(rows.shape[0]):
+        out[j, 0], out[j, 1] = _drive_margins_row(x, rows[j], i2t, P, cfg)
+    return out
 
 
 @numba.njit(cache=True)

@@ -64,8 +64,17 @@ class ForceTrackingTask(ElpasTask):
     def __init__(self, n: int, *, w_force: float = 1.0, w_energy: float = 1e-3, force_scale: float = 500.0,
                  force_range: tuple[float, float] = (1900.0, 3200.0), alpha_amplitude: float = np.deg2rad(15.0),
                  failure_penalty: float = 100.0, failure_rate: float = 0.0, episode_steps: int | None = None,
-                 **kwargs: Any) -> None:
+                 prescribed: tuple[np.ndarray, np.ndarray] | None = None, **kwargs: Any) -> None:
         super().__init__(n, **kwargs)
+        #: ``(F_ref, alpha)`` tables ``(n, T + 1)``, one sample per control step, that replace the drawn reference and
+        #: hydropulse motion (the paper's rig experiments, :mod:`baselines.elpas_rig`); empty: drawn signals
+        self.tables = np.zeros((2, self.n, 1))
+        if prescribed is not None:
+            f_tab, a_tab = (np.atleast_2d(np.asarray(v, dtype=np.float64)) for v in prescribed)
+            if f_tab.shape != a_tab.shape or f_tab.shape[0] != self.n:
+                raise ValueError(f"prescribed (F_ref, alpha) must both have shape (n, T + 1) = ({self.n}, T + 1), "
+                                 f"got {f_tab.shape} and {a_tab.shape}")
+            self.tables = np.ascontiguousarray(np.stack([f_tab, a_tab]))
         rate, self.episode_steps = failure_horizon(ENV_NAME, failure_rate, episode_steps)
         self.failure_rate = float(rate)
         self.w_force, self.w_energy = float(w_force), float(w_energy)
@@ -80,7 +89,7 @@ class ForceTrackingTask(ElpasTask):
         self.s["f_ref"] = np.zeros(self.n)
         lo, hi = force_range
         self._weights = np.array([self.w_force, self.force_scale, self.w_energy, self.failure_penalty,
-                                  self.failure_rate, float(self.episode_steps)])
+                                  self.failure_rate, float(self.episode_steps), float(prescribed is not None)])
         self._set_channels(self._common_channels() + [
             ObsChannel("force_ref", "N", float(lo), float(hi), "force reference"),
             ObsChannel("force_err", "N", float(lo) - 6000.0, float(hi), "force_ref - force"),
@@ -103,8 +112,8 @@ class ForceTrackingTask(ElpasTask):
         s, ms, rf = self.s, self.alpha_sig.prefix, self.ref.prefix
         return (s["x"], self._param_matrix(), self._cfg, self._weights, s["drive"], s["t"], s[f"{ms}_A"],
                 s[f"{ms}_w"], s[f"{ms}_phi"], s[f"{ms}_sphi"], s[f"{rf}_kind"], s[f"{rf}_t0"], s[f"{rf}_T"],
-                s[f"{rf}_v0"], s[f"{rf}_v1"], s[f"{rf}_A"], s[f"{rf}_f"], s["f_ref"], self._obs_lo64, self._obs_hi64,
-                s["obs"])
+                s[f"{rf}_v0"], s[f"{rf}_v1"], s[f"{rf}_A"], s[f"{rf}_f"], s["f_ref"], self.tables, self._obs_lo64,
+                self._obs_hi64, s["obs"])
 
     def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
         if renew:  # the compiled step put the ended segments' values at t_new into f_ref
@@ -112,27 +121,6 @@ class ForceTrackingTask(ElpasTask):
             ended = np.flatnonzero(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
             self.ref.renew(s, ended, self.rngs, s["t"], s["f_ref"])  # t: already t_new
         return self.s["f_ref"]
-
-    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
-        """The numpy-level step (the generic :meth:`BatchedTask.step`; subclasses may replace it)."""
-        t_new = self.s["t"] + self.control_dt
-        alpha_end = self.alpha_sig.value(self.s, t_new)
-        e_el = self._physics(a, alpha_end)
-        charged, info = self._energy_info(e_el)
-        F = self._F_true  # em.actuator_force_of(params, x) at the new state, computed by the sensor read
-        err = F - self.s["f_ref"]
-        margins = self._drive_margins(self._all_rows)
-        fail = (margins["margin_gamma_stop"] <= 0) | (margins["margin_i2t"] <= 0)
-        terms = {
-            "force": -self.w_force * (err / self.force_scale) ** 2,
-            "energy": -self.w_energy * charged / self.control_dt,
-            "failure": np.where(fail, failure_charge(self.failure_penalty, self.failure_rate,
-                                                     np.rint(t_new / self.control_dt), self.episode_steps), 0.0),
-        }
-        info.update(margins)
-        info.update({"force_error": err, "alpha": self.s["x"][:, em.ALPHA].copy()})
-        self.s["f_ref"] = self.ref.advance(self.s, t_new, self.rngs)
-        return terms, fail, info
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         s = self.s
@@ -159,23 +147,25 @@ class ForceTrackingTask(ElpasTask):
 def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray,
                         drv: np.ndarray, t: np.ndarray, ms_A: np.ndarray, ms_w: np.ndarray, ms_phi: np.ndarray,
                         ms_sphi: np.ndarray, kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray,
-                        v1: np.ndarray, A: np.ndarray, f: np.ndarray, f_ref: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                        obs: np.ndarray, out: np.ndarray) -> None:
-    """Row ``i`` of :meth:`ForceTrackingTask._advance`: alpha at the end of the step (:class:`Multisine`),
-    physics, energy, margins and reward terms into ``out[:, i]``, then the reference at the new time
-    (:class:`SegmentReference`; ``out[OUT_NEW_SEGMENT]`` flags the rows whose segment has ended) and the
-    observation without noise into ``obs[i]``; advances ``t[i]``.
+                        v1: np.ndarray, A: np.ndarray, f: np.ndarray, f_ref: np.ndarray, tables: np.ndarray,
+                        lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> None:
+    """One control step of row ``i`` of the force-tracking task: alpha at the end of the step (:class:`Multisine`,
+    or the prescribed table), physics, energy, margins and reward terms into ``out[:, i]``, then the reference at
+    the new time (:class:`SegmentReference`, or the table; ``out[OUT_NEW_SEGMENT]`` flags the rows whose segment
+    has ended) and the observation without noise into ``obs[i]``; advances ``t[i]``.
 
     ``drv``: ``s["drive"]``; ``w = [w_force, force_scale, w_energy, failure_penalty, failure_rate,
-    episode_steps]``; rows of ``out``:
-    ``step_info``, the reward terms, then the ``OUT_*`` tail.
+    episode_steps, prescribed]``; ``tables``: ``(2, n, T + 1)`` prescribed ``F_ref`` and alpha per control step
+    (read when ``w[6]`` is set); rows of ``out``: ``step_info``, the reward terms, then the ``OUT_*`` tail.
     """
     pi_int, i2t, meas, vel = drv[:, D_PI], drv[:, D_I2T], drv[:, D_MEAS:D_MEAS + 2], drv[:, D_VEL:D_VEL + 2]
     cur, force = drv[:, D_CUR], drv[:, D_FORCE]
     dt = cfg[C_DT]
     t_new = t[i] + dt
     cmd, clipped = _clip_action(a, i)
-    alpha_end = _multisine_value(ms_A, ms_w, ms_phi, ms_sphi, t_new, i)
+    prescribed = w[6] != 0.0
+    k_new = min(int(np.rint(t_new / dt)), tables.shape[2] - 1)
+    alpha_end = tables[1, i, k_new] if prescribed else _multisine_value(ms_A, ms_w, ms_phi, ms_sphi, t_new, i)
     e_el, F, _ = _drive_row(x, i, cmd, alpha_end, P, pi_int, i2t, meas, vel, cfg)
     cur[i], force[i] = x[i, em.CURRENT], F  # the readings without noise (Python adds it if configured)
     charged = _energy_row(i, e_el, drv[:, D_E_EL], drv[:, D_E_CH], drv[:, D_P_LAST], cfg, out)
@@ -188,29 +178,32 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, err, x[i, em.ALPHA]
     out[9, i], out[10, i], out[11, i] = r_force, r_energy, r_fail
     m = 12
-    out[m + OUT_REWARD, i] = 0.0 + r_force + r_energy + r_fail  # BatchedTask.step's sum, in reward_terms order
+    out[m + OUT_REWARD, i] = 0.0 + r_force + r_energy + r_fail  # the reward: the sum of the terms
     out[m + OUT_FAIL, i] = 1.0 if fail else 0.0
     out[m + OUT_CLIPPED, i] = 1.0 if clipped else 0.0
     out[m + OUT_F, i] = F
-    f_ref[i], ended = _segment_value(kind, t0, T, v0, v1, A, f, t_new, i)
+    if prescribed:
+        f_ref[i], ended = tables[0, i, k_new], False
+    else:
+        f_ref[i], ended = _segment_value(kind, t0, T, v0, v1, A, f, t_new, i)
     out[m + OUT_NEW_SEGMENT, i] = 1.0 if ended else 0.0
     _obs_clip_row(meas, vel, cur, force, f_ref, 2, lo, hi, obs, i)
-    t[i] = t_new  # BatchedTask.step's time update
+    t[i] = t_new  # the time after the step
 
 
 @numba.njit(cache=True)
 def _force_tracking_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray, drv: np.ndarray,
                          t: np.ndarray, ms_A: np.ndarray, ms_w: np.ndarray, ms_phi: np.ndarray, ms_sphi: np.ndarray,
                          kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray, v1: np.ndarray, A: np.ndarray,
-                         f: np.ndarray, f_ref: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray,
-                         out: np.ndarray) -> int:
+                         f: np.ndarray, f_ref: np.ndarray, tables: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                         obs: np.ndarray, out: np.ndarray) -> int:
     """:func:`_force_tracking_row` for every row: ``STATUS_BAD_ACTION`` (nothing changed) if an action is not
     finite, else the number of rows whose reference segment has ended."""
     if not _actions_finite(a):
         return STATUS_BAD_ACTION
     for i in range(x.shape[0]):
         _force_tracking_row(i, a, x, P, cfg, w, drv, t, ms_A, ms_w, ms_phi, ms_sphi, kind, t0, T, v0, v1, A, f, f_ref,
-                            lo, hi, obs, out)
+                            tables, lo, hi, obs, out)
     return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
 
 
@@ -218,18 +211,17 @@ def _force_tracking_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.nd
 def _force_tracking_rows_par(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray,
                              drv: np.ndarray, t: np.ndarray, ms_A: np.ndarray, ms_w: np.ndarray, ms_phi: np.ndarray,
                              ms_sphi: np.ndarray, kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray,
-                             v1: np.ndarray, A: np.ndarray, f: np.ndarray, f_ref: np.ndarray, lo: np.ndarray,
-                             hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> int:
+                             v1: np.ndarray, A: np.ndarray, f: np.ndarray, f_ref: np.ndarray, tables: np.ndarray,
+                             lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> int:
     """:func:`_force_tracking_rows` with the rows spread over the cores (rows are independent)."""
     if not _actions_finite(a):
         return STATUS_BAD_ACTION
     for i in numba.prange(x.shape[0]):
         _force_tracking_row(i, a, x, P, cfg, w, drv, t, ms_A, ms_w, ms_phi, ms_sphi, kind, t0, T, v0, v1, A, f, f_ref,
-                            lo, hi, obs, out)
+                            tables, lo, hi, obs, out)
     return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
 
 
-ForceTrackingTask._kernel_owner = ForceTrackingTask
 ForceTrackingTask._kernels = (_force_tracking_rows, _force_tracking_rows_par)
 
 

@@ -168,60 +168,13 @@ class QuarterCarTask(ElpasTask):
             s["acc_meas"][:] = self._accel_reading(self._all_rows)
         return s["acc_meas"]
 
-    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
-        """The numpy-level step (the generic :meth:`BatchedTask.step`; subclasses may replace it)."""
-        k = self.s["road_k"] + 1
-        road_end = self.s["road"][np.arange(self.n), np.minimum(k, self.road_steps)]
-        v_before = self.s["x"][:, em.V_S].copy()
-        e_el = self._physics(a, road_end)
-        self.s["road_k"] = k
-        for i in np.flatnonzero(k >= self.road_steps):  # drive on: a fresh stretch continuing at this height
-            self._new_road(int(i), float(road_end[i]))
-        charged, info = self._energy_info(e_el)
-        x = self.s["x"]
-        acc = (x[:, em.V_S] - v_before) / self.control_dt
-        # streaming ISO 2631-1 W_k filter: one sample per row through the sections (scipy.signal.sosfilt's
-        # recursion, compiled; tests/envs checks it equals sosfilt)
-        aw = sos_step(self.sos, acc, self.s["wk_zi"])
-        self.s["acc"], self.s["a_w"] = acc, aw
-        self.s["aw_sq_sum"] += aw**2
-        self.s["acc_meas"] = self._accel_reading(np.arange(self.n))
-        p = self.params
-        F_t = em.tyre_force_unchecked(p, x)
-        F0 = (self._col(p.car.m_s) + self._col(p.car.m_u)) * GRAVITY
-        alpha_max = self._col(p.cone.alpha_max)
-        travel_frac = np.abs(x[:, em.ALPHA]) / alpha_max
-        margins = self._margins(np.arange(self.n))
-        fail = (margins["margin_gamma_stop"] <= 0) | (margins["margin_i2t"] <= 0) | (F_t <= 0.0) | \
-            (margins["margin_travel"] <= 0)
-        t_new = self.s["t"] + self.control_dt
-        terms = {
-            "comfort": -self.w["comfort"] * (aw / self.accel_scale) ** 2,
-            "travel": -self.w["travel"] * (np.maximum(travel_frac - self.travel_soft, 0.0)
-                                           / (1.0 - self.travel_soft)) ** 2,
-            "tyre": -self.w["tyre"] * ((F_t - F0) / F0) ** 2,
-            "energy": -self.w["energy"] * charged / self.control_dt,
-            "failure": np.where(fail, failure_charge(self.failure_penalty, self.failure_rate,
-                                                     np.rint(t_new / self.control_dt), self.episode_steps), 0.0),
-        }
-        info.update(margins)
-        info.update({"body_accel": acc, "weighted_accel": aw, "tyre_force": F_t,
-                     "a_w_rms": np.sqrt(self.s["aw_sq_sum"] / np.maximum(t_new / self.control_dt, 1.0)),
-                     "road_height": road_end, "suspension_travel": em.suspension_travel(p, x)})
-        return terms, fail, info
-
     def _accel_reading(self, rows: np.ndarray) -> np.ndarray:
         return add_noise(self.s["acc"][rows], self.noise["accel"], self.rngs, rows)
 
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
-        p = self.params
-        x = self.s["x"]
-        F_t = em.tyre_force_unchecked(p, x)[rows]
-        F0 = ((self._col(p.car.m_s) + self._col(p.car.m_u)) * GRAVITY)[rows]
-        out = self._drive_margins(rows)
-        out["margin_travel"] = self._col(p.cone.alpha_max)[rows] - np.abs(x[rows, em.ALPHA])
-        out["margin_tyre_load"] = F_t / F0
-        return out
+        mg = _quarter_car_margins_of(self.s["x"], self.s["i2t"], self._param_matrix(), self._cfg,
+                                     np.asarray(rows, dtype=np.intp))
+        return dict(zip(MARGINS, mg.T, strict=True))
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         s = self.s
@@ -269,12 +222,39 @@ def default_task_params() -> ElpasParams:
 
 
 # ---------------------------------------------------------------------------- compiled task step
+MARGINS = ("margin_gamma_stop", "margin_i2t", "margin_travel", "margin_tyre_load")
+
+
+@register_jitable
+def _quarter_car_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarray,
+                             cfg: np.ndarray) -> tuple[float, float, float, float, float, float]:
+    """Row ``i``'s :data:`MARGINS` (end stop, I^2 t, wishbone travel, tyre load ``F_t / F_0``), then ``F_t`` and
+    the static load ``F_0``."""
+    p = em._matrix_row_params(P, i)
+    alpha = x[i, em.ALPHA]
+    F_t = em._tyre_force_point(x[i, em.Y_S], alpha, x[i, em.Y_R], p)
+    F0 = (p.car.m_s + p.car.m_u) * GRAVITY
+    mg, mi = _drive_margins_row(x, i, i2t, P, cfg)
+    return mg, mi, p.cone.alpha_max - abs(alpha), F_t / F0, F_t, F0
+
+
+@numba.njit(cache=True)
+def _quarter_car_margins_of(x: np.ndarray, i2t: np.ndarray, P: np.ndarray, cfg: np.ndarray,
+                            rows: np.ndarray) -> np.ndarray:
+    """:data:`MARGINS` of ``rows``, ``(len(rows), 4)``."""
+    out = np.empty((rows.shape[0], 4))
+    for j in range(rows.shape[0]):
+        r = _quarter_car_margins_row(x, rows[j], i2t, P, cfg)
+        out[j, 0], out[j, 1], out[j, 2], out[j, 3] = r[0], r[1], r[2], r[3]
+    return out
+
+
 @numba.njit(cache=True)
 def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarray, w: np.ndarray,
                      drv: np.ndarray, t: np.ndarray, road: np.ndarray, road_k: np.ndarray, sos: np.ndarray,
                      zi: np.ndarray, acc_s: np.ndarray, acc_meas: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray,
                      lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> bool:
-    """Row ``i`` of :meth:`QuarterCarTask._advance` (road sample, physics, W_k filter, energy, margins, reward
+    """One control step of row ``i`` of the quarter-car task (road sample, physics, W_k filter, energy, margins, reward
     terms) into ``out[:, i]``; returns whether the new state is finite.
 
     ``w = [w_comfort, w_travel, w_tyre, w_energy, accel_scale, travel_soft, failure_penalty, failure_rate,
@@ -301,11 +281,8 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     aw_sq[i] += aw**2
     p = em._matrix_row_params(P, i)
     alpha = x[i, em.ALPHA]
-    F_t = em._tyre_force_point(x[i, em.Y_S], alpha, x[i, em.Y_R], p)
-    F0 = (p.car.m_s + p.car.m_u) * GRAVITY
+    mg, mi, mt, load, F_t, F0 = _quarter_car_margins_row(x, i, i2t, P, cfg)
     travel_frac = abs(alpha) / p.cone.alpha_max
-    mg, mi = _drive_margins_row(x, i, i2t, P, cfg)
-    mt = p.cone.alpha_max - abs(alpha)
     fail = (mg <= 0) or (mi <= 0) or (F_t <= 0.0) or (mt <= 0)
     r_comfort = -w[0] * (aw / w[4]) ** 2
     r_travel = -w[1] * (max(travel_frac - w[5], 0.0) / (1.0 - w[5])) ** 2
@@ -313,19 +290,19 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     r_energy = -w[3] * charged / dt
     t_new = t[i] + dt
     r_fail = failure_charge(w[6], w[7], np.rint(t_new / dt), w[8]) if fail else 0.0
-    out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, mt, F_t / F0
+    out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, mt, load
     out[9, i], out[10, i], out[11, i] = acc, aw, F_t
     out[12, i] = np.sqrt(aw_sq[i] / max(t_new / dt, 1.0))
     out[13, i], out[14, i] = road_end, p.cone.l * np.sin(alpha)
     out[15, i], out[16, i], out[17, i], out[18, i], out[19, i] = r_comfort, r_travel, r_tyre, r_energy, r_fail
     m = 20
-    out[m + OUT_REWARD, i] = 0.0 + r_comfort + r_travel + r_tyre + r_energy + r_fail  # BatchedTask.step's sum
+    out[m + OUT_REWARD, i] = 0.0 + r_comfort + r_travel + r_tyre + r_energy + r_fail  # the reward: the sum of the terms
     out[m + OUT_FAIL, i] = 1.0 if fail else 0.0
     out[m + OUT_CLIPPED, i] = 1.0 if clipped else 0.0
     out[m + OUT_F, i] = F
     out[m + OUT_NEW_SEGMENT, i] = 1.0 if k >= road_steps else 0.0
     _obs_clip_row(meas, vel, cur, force, acc_meas, 1, lo, hi, obs, i)
-    t[i] = t_new  # BatchedTask.step's time update
+    t[i] = t_new  # the time after the step
     return finite
 
 
@@ -362,7 +339,6 @@ def _quarter_car_rows_par(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.n
     return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT]) if bad == 0 else STATUS_BAD_STATE
 
 
-QuarterCarTask._kernel_owner = QuarterCarTask
 QuarterCarTask._kernels = (_quarter_car_rows, _quarter_car_rows_par)
 
 

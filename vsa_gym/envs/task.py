@@ -104,8 +104,9 @@ class BatchedTask(ABC):
     """Base class of the batched environment logic (see the module docstring).
 
     Subclasses set the class attributes, build ``self.s`` in ``__init__`` (after
-    calling ``super().__init__``), and implement :meth:`_reset_rows`,
-    :meth:`_advance` and :meth:`_observe` plus the drawing hooks.
+    calling ``super().__init__``), and implement :meth:`_reset_rows`, :meth:`step`
+    (:class:`CompiledStepTask`: the task's compiled row functions) and :meth:`_observe`
+    plus the drawing hooks.
     """
 
     action_names: ClassVar[tuple[str, ...]]
@@ -214,22 +215,11 @@ class BatchedTask(ABC):
 
     def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         """Advance all rows one control step. Returns ``(obs, reward, terminated, info)`` batched."""
-        a, clipped = self.validate_action(action)
-        terms, terminated, info = self._advance(a)
-        reward = np.zeros(self.n)
-        for name in self.reward_terms:
-            reward = reward + terms[name]
-            info[f"reward_{name}"] = terms[name]
-        self.s["t"] += self.control_dt
-        self.s["obs"][:] = self._clip_obs(self._observe(self._all_rows))
-        self._record(self._all_rows)
-        info["action_clipped"] = clipped
-        info["time"] = self.s["t"].copy()
-        return self.s["obs"].copy(), reward, terminated, info
+        raise NotImplementedError
 
     def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
         """:meth:`step` of row 0 as a single environment returns it: ``(obs, reward, terminated, info)`` with
-        Python scalars in ``info`` (:class:`TaskEnv`; tasks with a compiled step build this directly)."""
+        Python scalars in ``info`` (:class:`TaskEnv`)."""
         obs, reward, terminated, info = self.step(action)
         return obs[0], float(reward[0]), bool(terminated[0]), _row_info(info, 0)
 
@@ -311,14 +301,6 @@ class BatchedTask(ABC):
         """Sample parameters, initial states and references for ``rows`` (use ``self.rngs[i]``)."""
 
     @abstractmethod
-    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
-        """Apply clipped actions ``(n, m)`` for one control step.
-
-        Returns ``(reward_terms, terminated, info)``; each reward term is an ``(n,)``
-        array (already signed: the reward is their sum).
-        """
-
-    @abstractmethod
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         """Sensor-based observation of ``rows``, ``(len(rows), n_obs)`` (float64, unclipped)."""
 
@@ -363,15 +345,13 @@ def _clip_obs_row(o: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray
 class CompiledStepTask(BatchedTask):
     """A task whose :meth:`step` runs as one compiled call for all rows (the eLPAS and vsaUT-II tasks).
 
-    Subclasses provide :meth:`_use_kernel` (False: the generic numpy-level :meth:`BatchedTask.step`, e.g.
-    for a subclass that replaces ``_advance``) and :meth:`_kernel_step`, which advances every row and
-    returns ``out`` ``(n_out, n)``: the ``m = len(_info_names)`` info values in the numpy path's key order,
-    then the ``OUT_*`` rows.  This class turns ``out`` into the batched or the single-row result.
+    The step is written once, as compiled row functions (``NUMBA_DISABLE_JIT=1`` runs them as plain Python).
+    Subclasses provide :meth:`_kernel_step`, which advances every row and returns ``out`` ``(n_out, n)``: the
+    ``m = len(_info_names)`` info values (``step_info``, then ``reward_<term>``), then the ``OUT_*`` rows.
+    This class turns ``out`` into the batched or the single-row result.
     """
 
-    #: the class whose ``_advance`` the compiled step implements (a subclass replacing it runs the generic
-    #: numpy-level step) and the info keys in the order of the numpy path
-    _kernel_owner: ClassVar[type | None] = None
+    #: the info keys of a step, in ``out``'s order
     step_info: ClassVar[tuple[str, ...]] = ()
     #: info keys whose values are flags (returned as booleans)
     bool_info: ClassVar[tuple[str, ...]] = ()
@@ -391,16 +371,11 @@ class CompiledStepTask(BatchedTask):
 
     def _kernel_args(self) -> tuple[Any, ...]:
         """:meth:`_build_kernel_args`, kept until the parameter set or the state array changes (the state arrays
-        are only ever written in place: reset, snapshot restore, the numpy-level and the compiled step)."""
+        are only ever written in place: reset, snapshot restore and the compiled step)."""
         memo = self._args_memo
         if memo is None or memo[0] is not self.params or memo[1] is not self.s["x"]:
             memo = self._args_memo = (self.params, self.s["x"], self._build_kernel_args())
         return memo[2]
-
-    def _use_kernel(self) -> bool:
-        """Whether :meth:`step` runs the compiled step: the task's ``_advance`` is the one it implements."""
-        owner = self._kernel_owner
-        return owner is not None and type(self)._advance is owner._advance
 
     def _run_kernel(self, a: np.ndarray, out: np.ndarray) -> int:
         """Run the task's compiled step on the raw actions ``a`` ``(n, m)``; returns ``STATUS_BAD_ACTION``,
@@ -427,11 +402,8 @@ class CompiledStepTask(BatchedTask):
         raise NotImplementedError
 
     def step(self, action: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-        """:meth:`BatchedTask.step` through the task's compiled step (drive, core, sensors, energy, margins,
-        reward terms, failures and observation of every row in one call); Python draws the noise and renews
-        the signals."""
-        if not self._use_kernel():
-            return super().step(action)
+        """The task's compiled step (drive, core, sensors, energy, margins, reward terms, failures and observation
+        of every row in one call); Python draws the noise and renews the signals."""
         out = self._kernel_step(action)
         m = self._n_info
         info = dict(zip(self._info_names, out[:m], strict=True))
@@ -442,7 +414,7 @@ class CompiledStepTask(BatchedTask):
         return self.s["obs"].copy(), out[m + OUT_REWARD], out[m + OUT_FAIL] != 0.0, info
 
     def step_single(self, action: Any) -> tuple[np.ndarray, float, bool, dict[str, Any]]:
-        if not self._use_kernel() or self.n != 1:
+        if self.n != 1:
             return super().step_single(action)
         vals = self._kernel_step(action).ravel().tolist()  # (n_out, 1): row 0
         m = self._n_info

@@ -26,15 +26,16 @@ hidden state that neither a controller nor an agent could anticipate.
 
 Step: one compiled call for all rows (the task's ``_*_rows``, built from :func:`_drive_all` -- the core's
 own compiled RK4/ETD step, the amplifier law, the sensing of :func:`_sense_update` -- and the row
-functions of the energy, margins and observation that the numpy-level methods use too); Python keeps the
-noise draws, the reference segment renewals and ``info``.  The numpy-level ``_advance`` stays the reference
-(tests/envs/test_vsaut2_compiled_step.py) and runs with ``parallel_rows=True`` (64 rows or more: the core's
-threaded kernel, which a cached compiled step cannot call).
+functions of the energy, margins and observation, which the reset-time methods call too); Python keeps the
+noise draws, the reference segment renewals and ``info``.  This is the only implementation of a task step
+(``NUMBA_DISABLE_JIT=1`` runs the same functions as plain Python for debugging); ``parallel_rows=True`` (64 rows
+or more) runs the same step built by :func:`threaded_variant` around the core's threaded kernels.
 """
 
 from __future__ import annotations
 
 import math
+import types
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
@@ -68,7 +69,9 @@ from vsa_gym.vsaut2.model import (
     VsaUT2Model,
     _all_finite,
     _etd_compiled,
+    _etd_compiled_parallel,
     _rk4_compiled,
+    _rk4_compiled_parallel,
 )
 from vsa_gym.vsaut2.params import VsaUT2Params
 
@@ -99,7 +102,7 @@ N_K = 12
 # columns of the drive bookkeeping array ``s["drive"]`` (``s["i2t"]``, ``s["meas"]``, ... are views of them)
 D_I2T, D_MEAS, D_VEL, D_CUR, D_E_EL, D_E_CH = 0, 2, 5, 8, 10, 11
 N_DRIVE = 12
-# the info values every vsaUT-II task's compiled step writes first into ``out`` (``_energy_info``, ``_margins``)
+# the info values every vsaUT-II task's compiled step writes first into ``out`` (:func:`_energy_row`, ``_margins``)
 ENERGY_INFO = ("energy_el", "energy_el_pivot", "energy_el_frame", "energy_charged", "energy_el_total",
                "energy_charged_total")
 MARGIN_INFO = ("margin_frame_stop", "margin_deflection_stop", "margin_i2t", "margin_pivot_stroke")
@@ -191,8 +194,8 @@ class VsaUT2Task(CompiledStepTask):
         self._cfg = cfg
         #: any sensor noise? (then the compiled step's noise-free observation is recomputed after the draws)
         self._noisy = self.noise["current"] != 0.0
-        #: run the core's row loop on all cores (numba ``prange``) from ``PARALLEL_MIN_ROWS`` rows: then the
-        #: numpy-level step runs (VsaUT2Model's threaded kernel), not the compiled task step.  Off by default: on
+        #: run the core's row loop on all cores (numba ``prange``) from ``PARALLEL_MIN_ROWS`` rows: the task step
+        #: built around VsaUT2Model's threaded kernels (:func:`threaded_variant`).  Off by default: on
         #: this shared 2-core machine the threaded kernel cost more CPU time per step than it saved (n=1024: 23 vs
         #: 14 ms of CPU time per core step at load 8-10, like the eLPAS envs in docs/performance.md)
         self._parallel = bool(parallel_rows) and self.n >= PARALLEL_MIN_ROWS
@@ -285,14 +288,6 @@ class VsaUT2Task(CompiledStepTask):
         x = self.s["x"][rows]
         self.s["cur"][rows] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
 
-    def _update_sensors(self) -> None:
-        """I^2 t states, encoder reads and speed estimates of every row (one compiled call), then the currents."""
-        rows = self._all_rows
-        x = self.s["x"]
-        _sense_update(x, self.s["meas"], self.s["vel"], self.s["i2t"], self._enc, self.control_dt, self.v_gain,
-                      self.i_nominal)
-        self.s["cur"][:] = add_noise(x[:, [STATE["i1"], STATE["i2"]]], self.noise["current"], self.rngs, rows)
-
     def _common_obs(self, rows: np.ndarray) -> np.ndarray:
         """The ``N_COMMON_OBS`` common channels of ``rows`` (compiled: eq. 5 and eq. 6 on the quantised angles)."""
         c = self._cols()
@@ -303,40 +298,6 @@ class VsaUT2Task(CompiledStepTask):
         """True output stiffness of every row, ``VsaUT2Model.stiffness`` (eq. 6 in series with the belt), compiled."""
         return _true_stiffness(self.s["x"], self.model._p_rows, self._cols()["K_b"])
 
-    # ------------------------------------------------------------------ physics step
-    def _physics(self, a: np.ndarray, tau_ext: np.ndarray, enabled: np.ndarray | None = None) -> np.ndarray:
-        """Apply the commands for one control step; returns the per-motor electrical energy ``(n, 2)`` (J).
-
-        ``enabled`` (bool ``(n,)``) switches drives off (0 V) where false.
-        """
-        p = self.params
-        m1, m2 = p.pivot_motor, p.frame_motor
-        x = self.s["x"]
-        if self.control_mode == "voltage":
-            u = a * self._cols()["U_max"]
-            if enabled is not None:
-                u = np.where(enabled[:, None], u, 0.0)
-            x, e_sum = self.model._step_valid(x, u, tau_ext, self.control_dt)  # inputs valid by construction
-        else:
-            i_ref = a * self._cols()["I_max"]
-            e_sum = np.zeros((self.n, len(POWER)))
-            dt = self.control_dt / self.n_inner
-            for _ in range(self.n_inner):
-                u = np.stack([
-                    current_control_voltage(m1, i_ref[:, 0], x[:, STATE["i1"]], x[:, STATE["w1"]],
-                                            self.current_bandwidth_hz),
-                    current_control_voltage(m2, i_ref[:, 1], x[:, STATE["i2"]], x[:, STATE["w2"]],
-                                            self.current_bandwidth_hz),
-                ], axis=1)
-                if enabled is not None:
-                    u = np.where(enabled[:, None], u, 0.0)
-                x, e = self.model._step_valid(x, u, tau_ext, dt, n_sub=1)
-                e_sum = e_sum + e
-        self.s["x"][:] = x  # in place: the compiled step's argument tuple keeps the array
-        e_m = e_sum[:, [POWER["el_pivot"], POWER["el_frame"]]]
-        self._update_sensors()  # also advances the I^2 t states (sensing.i2t_update)
-        return e_m
-
     # ------------------------------------------------------------------ failures and margins
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         c = self._cols()
@@ -345,31 +306,12 @@ class VsaUT2Task(CompiledStepTask):
         return {"margin_frame_stop": mg[:, 0], "margin_deflection_stop": mg[:, 1], "margin_i2t": mg[:, 2],
                 "margin_pivot_stroke": mg[:, 3]}
 
-    def _failures(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        mg = self._margins(self._all_rows)
-        fail = (mg["margin_frame_stop"] <= 0) | (mg["margin_deflection_stop"] <= 0) | (mg["margin_i2t"] <= 0)
-        return fail, mg
-
-    def _energy_info(self, e_m: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
-        charged = self.energy_cost_basis(e_m)
-        self.s["e_el"] += e_m.sum(axis=1)
-        self.s["e_charged"] += charged
-        return charged, {
-            "energy_el": e_m.sum(axis=1), "energy_el_pivot": e_m[:, 0], "energy_el_frame": e_m[:, 1],
-            "energy_charged": charged, "energy_el_total": self.s["e_el"].copy(),
-            "energy_charged_total": self.s["e_charged"].copy(),
-        }
-
     # ------------------------------------------------------------------ compiled step
-    #: the task's compiled step (row loop); ``_kernel_owner`` also implements ``_observe`` here (a subclass
-    #: replacing it runs the generic numpy-level step)
-    _kernel: ClassVar[tuple[Callable[..., int]] | None] = None  # in a tuple: not bound as a method
+    #: the task's compiled steps: (serial, with the core's threaded kernels; see :func:`threaded_variant`)
+    _kernel: ClassVar[tuple[Callable[..., int], Callable[..., int]] | None] = None  # in a tuple: not bound
     #: renewable signals of the task (their flags follow ``OUT_NEW_SEGMENT`` in ``out``)
     n_signals: ClassVar[int] = 0
 
-    def _use_kernel(self) -> bool:
-        # the compiled step also implements _observe; parallel_rows runs the numpy-level step (threaded core)
-        return super()._use_kernel() and not self._parallel and type(self)._observe is self._kernel_owner._observe
 
     def _failure_rates(self) -> np.ndarray:
         """Per-row charge per remaining step of a failed episode (``K_RATE``; tasks that charge one override)."""
@@ -389,20 +331,20 @@ class VsaUT2Task(CompiledStepTask):
         """Run the task's compiled step on the raw actions ``a`` ``(n, 2)``. Returns ``STATUS_BAD_ACTION``
         (nothing changed), ``STATUS_BAD_STATE`` (nothing changed) or the number of flagged signal renewals."""
         assert self._kernel is not None
-        return self._kernel[0](a, *self._kernel_args(), out)
+        return self._kernel[self._parallel](a, *self._kernel_args(), out)
 
     def _after_kernel(self, out: np.ndarray) -> None:
         """Python part after the compiled step: renew the signal segments flagged in ``out`` (random draws in
-        the numpy path's order, after the current noise); ``s["t"]`` is already the new time."""
+        the order of the signals, after the current noise); ``s["t"]`` is already the new time."""
 
     def _kernel_step(self, action: Any) -> np.ndarray:
-        """The compiled :meth:`BatchedTask.step` up to ``info``; returns ``out`` ``(n_out, n)`` (``step_info``,
+        """The compiled step up to ``info``; returns ``out`` ``(n_out, n)`` (``step_info``,
         ``reward_<term>``, then the ``OUT_*`` rows)."""
         out, status = self._compiled_call(action, OUT_NEW_SEGMENT + self.n_signals)
         if status == STATUS_BAD_STATE:
             raise FloatingPointError("vsaUT-II integration produced a non-finite state; reduce dt")
         s = self.s
-        if self._noisy:  # _update_sensors' draws
+        if self._noisy:  # the current readings' noise draws
             s["cur"][:] = add_noise(s["x"][:, [_I1, _I2]], self.noise["current"], self.rngs, self._all_rows)
         if status > 0:
             self._after_kernel(out)
@@ -540,16 +482,16 @@ def _margin_row(x: np.ndarray, i2t: np.ndarray, th1_max: np.ndarray, q2_max: np.
 
 
 # ---------------------------------------------------------------------------- compiled task step parts
-# VsaUT2Task._physics + _update_sensors (without the noise draws), _energy_info and _margins / _failures, element
-# by element with the operations of the numpy path: the core's own compiled step (VsaUT2Model._step_valid's
-# kernels, called here on all rows at once), the current-mode amplifier law of physics.dc_motor, the sensing of
-# _sense_update; the tasks' compiled steps (vsaut2_position_stiffness, vsaut2_throw) add references and rewards.
+# The drive (without the noise draws), energy and margins of a step, element by element: the core's own compiled
+# step (VsaUT2Model._step_valid's kernels, called here on all rows at once), the current-mode amplifier law of
+# physics.dc_motor, the sensing of _sense_update; the tasks' compiled steps (vsaut2_position_stiffness,
+# vsaut2_throw) add references and rewards.
 
 
 @register_jitable
 def _drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarray, P: np.ndarray, D: np.ndarray,
                C: np.ndarray, cfg: np.ndarray, drv: np.ndarray, e_m: np.ndarray, clipped: np.ndarray) -> bool:
-    """:meth:`VsaUT2Task._physics` for every row on the raw (finite) actions ``a`` ``(n, 2)``.
+    """One control step of the drives and the core for every row on the raw (finite) actions ``a`` ``(n, 2)``.
 
     Clips the actions (``clipped``: rows with a component outside ``[-1, 1]``), integrates the core (voltage
     mode: ``u = a U_max``; current mode: the amplifier law every inner step), puts the per-motor electrical
@@ -579,8 +521,8 @@ def _drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarra
                 u[i, 1] = current_control_voltage(p.frame_motor, cmd[i, 1] * C[i, K_I2], xc[i, _I2], xc[i, _W2], bw)
             else:
                 u[i, 0], u[i, 1] = cmd[i, 0] * C[i, K_U1], cmd[i, 1] * C[i, K_U2]
-        # the core's serial kernels (a cached function calling the parallel ones crashes when loaded from the
-        # cache; parallel_rows runs the numpy-level step, whose core call is threaded from PARALLEL_MIN_ROWS rows)
+        # the core's serial kernels: a cached function calling the parallel ones crashes when loaded from the
+        # cache; threaded_variant builds an uncached copy of the step that calls the parallel ones
         if etd:
             x_new, e = _etd_compiled(xc, u, tau, P, D, h, n_sub)
         else:
@@ -603,7 +545,7 @@ def _drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarra
 
 @register_jitable
 def _energy_row(i: int, e_m: np.ndarray, drv: np.ndarray, cfg: np.ndarray, out: np.ndarray) -> float:
-    """:meth:`VsaUT2Task._energy_info` for row ``i`` into ``out[:6, i]`` (``ENERGY_INFO``); returns the charged
+    """Row ``i``'s step energies into ``out[:6, i]`` (``ENERGY_INFO``), the totals in ``drv``; returns the charged
     energy."""
     e0, e1 = e_m[i, 0], e_m[i, 1]
     e = e0 + e1
@@ -617,8 +559,8 @@ def _energy_row(i: int, e_m: np.ndarray, drv: np.ndarray, cfg: np.ndarray, out: 
 
 @register_jitable
 def _margins_into(x: np.ndarray, drv: np.ndarray, C: np.ndarray, i: int, out: np.ndarray, k: int) -> bool:
-    """Row ``i``'s margins (``MARGIN_INFO``) into ``out[k:k + 4, i]``; returns the failure flag of
-    :meth:`VsaUT2Task._failures`."""
+    """Row ``i``'s margins (``MARGIN_INFO``) into ``out[k:k + 4, i]``; returns the failure flag (frame or deflection
+    end stop, I^2 t trip)."""
     mg = _margin_row(x, drv[:, D_I2T:D_I2T + 2], C[:, K_TH1_MAX], C[:, K_Q2_MAX], C[:, K_PHI_MAX],
                      C[:, K_LIM1:K_LIM2 + 1], i)
     out[k, i], out[k + 1, i], out[k + 2, i], out[k + 3, i] = mg
@@ -630,3 +572,26 @@ def _common_obs_of(x: np.ndarray, P: np.ndarray, C: np.ndarray, drv: np.ndarray,
     """Row ``i``'s common observation channels (:meth:`VsaUT2Task._common_obs`) into ``o``."""
     _common_obs_row(drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_CUR:D_CUR + 2],
                     drv[:, D_I2T:D_I2T + 2], C[:, K_LIM1:K_LIM2 + 1], P, C[:, K_KB], C[:, K_RATIO], i, o)
+
+
+def threaded_variant(kernel: Any) -> Any:
+    """A task's compiled step (``numba`` dispatcher) rebuilt around the core's threaded kernels, uncached.
+
+    The copy runs the same code (its ``py_func``) with :func:`_drive_all` replaced by a copy that calls
+    ``_rk4_compiled_parallel`` / ``_etd_compiled_parallel``: the rows of the core's step spread over the cores,
+    everything else as in the serial step, so the two give the same numbers.  Uncached, because a cached
+    function that calls the parallel kernels crashes when loaded from the cache; it compiles on first use.
+    """
+    drive = register_jitable(_with_globals(_drive_all, "_threaded", _rk4_compiled=_rk4_compiled_parallel,
+                                           _etd_compiled=_etd_compiled_parallel))
+    py_func = getattr(kernel, "py_func", kernel)  # a plain function under NUMBA_DISABLE_JIT=1
+    return numba.njit(cache=False)(_with_globals(py_func, "_threaded", _drive_all=drive))
+
+
+def _with_globals(f: Any, suffix: str, **names: Any) -> Any:
+    """``f`` as a new function named ``<name><suffix>`` whose global ``names`` are replaced."""
+    g = dict(f.__globals__)
+    g.update(names)
+    twin = types.FunctionType(f.__code__, g, f.__name__ + suffix, f.__defaults__, f.__closure__)
+    twin.__qualname__ = f.__qualname__ + suffix
+    return twin

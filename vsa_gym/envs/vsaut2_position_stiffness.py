@@ -41,6 +41,7 @@ from vsa_gym.envs.vsaut2_common import (
     _energy_row,
     _margins_into,
     _true_stiffness_row,
+    threaded_variant,
 )
 from vsa_gym.vsaut2.model import STATE
 
@@ -159,34 +160,6 @@ class PositionStiffnessTask(VsaUT2Task):
         self.s["steps"][rows] = 0
         self._reset_sensors(rows)
 
-    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
-        e_m = self._physics(a, self.s["tau"])
-        t_new = self.s["t"] + self.control_dt
-        x = self.s["x"]
-        logK = np.log(np.maximum(self._stiffness(), K_FLOOR))
-        e_r = x[:, STATE["r"]] - self.s["r_ref"]
-        e_k = logK - self.s["k_ref"]
-        charged, info = self._energy_info(e_m)
-        fail, margins = self._failures()
-        self.s["steps"] += 1
-        failure = np.zeros(self.n)
-        if fail.any():  # the charge for the steps not taken (the rate is only computed when needed)
-            failure = np.where(fail, failure_charge(self.failure_penalty, self.failure_rate(), self.s["steps"],
-                                                    self.episode_steps), 0.0)
-        terms = {
-            "position": -self.w["position"] * (e_r / self.position_scale) ** 2,
-            "stiffness": -self.w["stiffness"] * (e_k / self.log_stiffness_scale) ** 2,
-            "energy": -self.w["energy"] * charged,
-            "failure": failure,
-        }
-        info.update(margins)
-        info.update({"position_error": e_r, "log_stiffness_error": e_k, "tau_ext": self.s["tau"].copy()})
-        # references for the next step (what the next state is compared with)
-        self.s["r_ref"][:] = self.ref_r.advance(self.s, t_new, self.rngs)
-        self.s["k_ref"][:] = self.ref_k.advance(self.s, t_new, self.rngs)
-        self.s["tau"][:] = self.dist.advance(self.s, t_new, self.rngs)
-        return terms, fail, info
-
     def _build_kernel_args(self) -> tuple[Any, ...]:
         s = self.s
         return (s["x"], self.model._p_rows, self.model._d_rows, self._row_cols(), self._cfg, self._weights,
@@ -195,7 +168,7 @@ class PositionStiffnessTask(VsaUT2Task):
     def _after_kernel(self, out: np.ndarray) -> None:
         s = self.s
         flags = out[self._n_info + OUT_NEW_SEGMENT:]
-        for j, sig in enumerate((self.ref_r, self.ref_k, self.dist)):  # the numpy path's order of draws
+        for j, sig in enumerate((self.ref_r, self.ref_k, self.dist)):  # the signals' order of draws
             ended = np.flatnonzero(flags[j])
             if ended.size:  # the compiled step put the ended segments' values at t_new into refs
                 sig.renew(s, ended, self.rngs, s["t"], s["refs"][:, j])
@@ -222,7 +195,7 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
                              cfg: np.ndarray, w: np.ndarray, drv: np.ndarray, refs: np.ndarray, seg: np.ndarray,
                              steps: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray,
                              out: np.ndarray) -> int:
-    """:meth:`PositionStiffnessTask._advance` + the rest of ``BatchedTask.step`` for every row in one call.
+    """One control step of the task for every row in one call (what ``step`` returns, up to ``info``).
 
     The drive and core step of all rows (:func:`~vsa_gym.envs.vsaut2_common._drive_all`), then per row: true
     stiffness, errors, energy, margins, failure, reward terms into ``out[:, i]`` (``step_info``, the reward
@@ -257,7 +230,7 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
         r_fail = failure_charge(w[5], C[i, K_RATE], steps[i], w[6]) if fail else 0.0
         out[10, i], out[11, i], out[12, i] = e_r, e_k, tau[i]
         out[13, i], out[14, i], out[15, i], out[16, i] = r_pos, r_stf, r_en, r_fail
-        out[m + OUT_REWARD, i] = 0.0 + r_pos + r_stf + r_en + r_fail  # BatchedTask.step's sum, in term order
+        out[m + OUT_REWARD, i] = 0.0 + r_pos + r_stf + r_en + r_fail  # the reward: the sum of the terms, in term order
         out[m + OUT_FAIL, i] = 1.0 if fail else 0.0
         out[m + OUT_CLIPPED, i] = 1.0 if clipped[i] else 0.0
         for j in range(3):
@@ -266,7 +239,7 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
                                                seg[:, b + 5], seg[:, b + 6], t_new, i)
             out[m + OUT_NEW_SEGMENT + j, i] = 1.0 if ended else 0.0
             flagged += ended
-        t[i] = t_new  # BatchedTask.step's time update
+        t[i] = t_new  # the time after the step
         _common_obs_of(x, P, C, drv, i, o)
         o[N_COMMON_OBS], o[N_COMMON_OBS + 1] = refs[i, 0], refs[i, 1]
         o[N_COMMON_OBS + 2], o[N_COMMON_OBS + 3] = refs[i, 0] - o[2], refs[i, 1] - o[8]
@@ -274,8 +247,7 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
     return flagged
 
 
-PositionStiffnessTask._kernel_owner = PositionStiffnessTask
-PositionStiffnessTask._kernel = (_position_stiffness_rows,)
+PositionStiffnessTask._kernel = (_position_stiffness_rows, threaded_variant(_position_stiffness_rows))
 
 _OBS_DOC = indent(obs_table(PositionStiffnessTask(1).obs_channels))
 

@@ -35,6 +35,7 @@ from vsa_gym.envs.vsaut2_common import (
     _drive_all,
     _energy_row,
     _margins_into,
+    threaded_variant,
 )
 from vsa_gym.vsaut2.model import STATE
 
@@ -86,25 +87,6 @@ class ThrowTask(VsaUT2Task):
             self.s["x"][i] = self._row_model(int(i)).initial_state(1, q1=self.q1_frac * float(p.q1_max))[0]
         self._reset_sensors(rows)
 
-    def _advance(self, a: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray, dict[str, np.ndarray]]:
-        r_before = self.s["x"][:, STATE["r"]].copy()
-        enabled = self.s["e_charged"] < self.energy_budget
-        e_m = self._physics(a, np.zeros(self.n), enabled)
-        _, info = self._energy_info(e_m)
-        x = self.s["x"]
-        r, r_dot = x[:, STATE["r"]], x[:, STATE["r_dot"]]
-        released = (r_before < self.release_angle) & (r >= self.release_angle)
-        fail, margins = self._failures()
-        fail = fail & ~released
-        terms = {
-            "release": np.where(released, np.maximum(r_dot, 0.0), 0.0),
-            "failure": np.where(fail, -self.failure_penalty, 0.0),
-        }
-        info.update(margins)
-        info.update({"released": released, "release_speed": np.where(released, r_dot, 0.0),
-                     "drive_enabled": enabled, "margin_energy": self.energy_budget - self.s["e_charged"]})
-        return terms, released | fail, info
-
     def _build_kernel_args(self) -> tuple[Any, ...]:
         s = self.s
         return (s["x"], self.model._p_rows, self.model._d_rows, self._row_cols(), self._cfg, self._weights,
@@ -135,7 +117,7 @@ class ThrowTask(VsaUT2Task):
 def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: np.ndarray, cfg: np.ndarray,
                 w: np.ndarray, drv: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray,
                 out: np.ndarray) -> int:
-    """:meth:`ThrowTask._advance` + the rest of ``BatchedTask.step`` for every row in one call.
+    """One control step of the task for every row in one call (what ``step`` returns, up to ``info``).
 
     The drive and core step of all rows (switched off where the budget is spent;
     :func:`~vsa_gym.envs.vsaut2_common._drive_all`), then per row: energy, release, margins, failure and the
@@ -166,10 +148,10 @@ def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: n
         out[10, i], out[11, i] = 1.0 if released else 0.0, r_dot if released else 0.0
         out[12, i], out[13, i] = 1.0 if enabled[i] else 0.0, w[1] - drv[i, D_E_CH]
         out[14, i], out[15, i] = r_rel, r_fail
-        out[m + OUT_REWARD, i] = 0.0 + r_rel + r_fail  # BatchedTask.step's sum, in term order
+        out[m + OUT_REWARD, i] = 0.0 + r_rel + r_fail  # the reward: the sum of the terms, in term order
         out[m + OUT_FAIL, i] = 1.0 if released or fail else 0.0
         out[m + OUT_CLIPPED, i] = 1.0 if clipped[i] else 0.0
-        t[i] = t[i] + cfg[C_DT]  # BatchedTask.step's time update
+        t[i] = t[i] + cfg[C_DT]  # the time after the step
         _common_obs_of(x, P, C, drv, i, o)
         o[N_COMMON_OBS] = max(w[1] - drv[i, D_E_CH], 0.0)
         o[N_COMMON_OBS + 1] = max(w[2] - t[i], 0.0)
@@ -177,8 +159,7 @@ def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: n
     return 0
 
 
-ThrowTask._kernel_owner = ThrowTask
-ThrowTask._kernel = (_throw_rows,)
+ThrowTask._kernel = (_throw_rows, threaded_variant(_throw_rows))
 
 _OBS_DOC = indent(obs_table(ThrowTask(1).obs_channels))
 
