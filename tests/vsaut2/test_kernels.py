@@ -6,7 +6,7 @@ import pytest
 
 from vsa_gym.physics.contact import FAR, penalty_contact
 from vsa_gym.physics.gearbox import input_torque
-from vsa_gym.vsaut2.model import N_POWER, N_STATES, PARALLEL_MIN_ROWS, PORTS, VsaUT2Model, _rhs_compiled, _rhs_core
+from vsa_gym.vsaut2.model import N_POWER, N_STATES, PARALLEL_MIN_ROWS, PORTS, VsaUT2Model, _rhs_core, rhs_rows
 from vsa_gym.vsaut2.params import VsaUT2Effects, VsaUT2Params
 
 
@@ -120,7 +120,7 @@ def test_compiled_rhs_equals_numpy_rhs_bit_for_bit(effects):
     x = _states(model, n)
     rng = np.random.default_rng(3)
     u, tau = rng.uniform(-40, 40, (n, 2)), rng.normal(0, 2, n)
-    dx_c, pw_c = _rhs_compiled(x, u, tau, model._p_rows, model._d_rows)
+    dx_c, pw_c = rhs_rows(x, u, tau, model.p_rows, model.d_rows)
     dx_n, pw_n = np.empty((n, N_STATES)), np.empty((n, N_POWER))
     _rhs_core(x, u, tau, model.params, model._d, np.zeros((n, len(PORTS))), dx_n, pw_n)
     for c, nm in ((dx_c, dx_n), (pw_c, pw_n)):
@@ -146,8 +146,8 @@ def test_serial_and_parallel_kernels_have_their_own_cache_entries():
     """numba's cache key ignores ``parallel``: the two compilations of a kernel must not share a function name."""
     from vsa_gym.vsaut2 import model as core
 
-    for serial, parallel in ((core._rk4_compiled, core._rk4_compiled_parallel),
-                             (core._etd_compiled, core._etd_compiled_parallel)):
+    for serial, parallel in ((core.rk4_rows, core.rk4_rows_parallel),
+                             (core.etd_rows, core.etd_rows_parallel)):
         assert serial.py_func.__qualname__ != parallel.py_func.__qualname__
         assert serial.py_func.__code__ is parallel.py_func.__code__  # the same kernel, compiled twice
 

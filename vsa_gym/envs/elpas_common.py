@@ -44,7 +44,7 @@ from vsa_gym.envs.task import (
     ControlMode,
     ObsChannel,
     RegenPolicy,
-    _clip_obs_row,
+    clip_obs_row,
 )
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
@@ -258,7 +258,7 @@ class ElpasTask(CompiledStepTask):
     def _after_kernel(self, out: np.ndarray, renew: bool) -> np.ndarray:
         """Python part after the compiled step (the random draws after the noise; ``renew``: some row is
         flagged in ``out[OUT_NEW_SEGMENT]``); returns the observation channels after the common ones
-        (``_obs_rows``'s ``extra``)."""
+        (``obs_rows``'s ``extra``)."""
         raise NotImplementedError
 
     def _kernel_step(self, action: Any) -> np.ndarray:
@@ -277,7 +277,7 @@ class ElpasTask(CompiledStepTask):
         return out
 
     def _drive_margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
-        """``margin_gamma_stop`` and ``margin_i2t`` of ``rows`` (the compiled step's :func:`_drive_margins_row`)."""
+        """``margin_gamma_stop`` and ``margin_i2t`` of ``rows`` (the compiled step's :func:`drive_margins_row`)."""
         mg = _drive_margins_of(self.s["x"], self.s["i2t"], self._param_matrix(), self._cfg,
                                np.asarray(rows, dtype=np.intp))
         return {"margin_gamma_stop": mg[:, 0], "margin_i2t": mg[:, 1]}
@@ -323,7 +323,7 @@ class ElpasTask(CompiledStepTask):
 # operations of its numpy form, sensing.i2t_update / update_velocity, and the encoders' quantisers of
 # physics.sensors (IncrementalEncoder / AbsoluteEncoder.measure; step 0: encoder disabled, exact angle).
 @register_jitable
-def _drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarray, pi_int: np.ndarray,
+def drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarray, pi_int: np.ndarray,
                i2t: np.ndarray, meas: np.ndarray, vel: np.ndarray, cfg: np.ndarray) -> tuple[float, float, bool]:
     """Advance row ``i`` one control step in place (``x``, ``pi_int``, ``i2t``, ``meas``, ``vel``).
 
@@ -379,7 +379,7 @@ def _drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarr
 
 
 @register_jitable
-def _energy_row(i: int, e_el: float, e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray,
+def energy_row(i: int, e_el: float, e_tot: np.ndarray, e_ch_tot: np.ndarray, p_last: np.ndarray,
                 cfg: np.ndarray, out: np.ndarray) -> float:
     """:meth:`ElpasTask._energy_info` for row ``i`` into ``out[:5, i]`` (``ENERGY_INFO``); returns the charged
     energy."""
@@ -396,7 +396,7 @@ ENERGY_INFO = ("energy_el", "energy_charged", "energy_el_total", "energy_charged
 
 
 @register_jitable
-def _drive_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarray, cfg: np.ndarray) -> tuple[float, float]:
+def drive_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarray, cfg: np.ndarray) -> tuple[float, float]:
     """``(margin_gamma_stop, margin_i2t)`` of row ``i`` (:meth:`ElpasTask._drive_margins`)."""
     p = em._matrix_row_params(P, i)
     lim = i2t_limit(p.motor.I_max, cfg[C_I_NOM], cfg[C_I2T_TRIP])
@@ -405,15 +405,15 @@ def _drive_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarray, cf
 
 @numba.njit(cache=True)
 def _drive_margins_of(x: np.ndarray, i2t: np.ndarray, P: np.ndarray, cfg: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """:func:`_drive_margins_row` of ``rows``, ``(len(rows), 2)``."""
+    """:func:`drive_margins_row` of ``rows``, ``(len(rows), 2)``."""
     out = np.empty((rows.shape[0], 2))
     for j in range(rows.shape[0]):
-        out[j, 0], out[j, 1] = _drive_margins_row(x, rows[j], i2t, P, cfg)
+        out[j, 0], out[j, 1] = drive_margins_row(x, rows[j], i2t, P, cfg)
     return out
 
 
 @numba.njit(cache=True)
-def _obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
+def obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
               n_extra: int, rows: np.ndarray) -> np.ndarray:
     """Observation rows ``(len(rows), 6 + n_extra)`` (float64, unclipped)."""
     out = np.empty((rows.shape[0], 6 + n_extra))
@@ -439,18 +439,18 @@ def _obs_clip_into(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np
     """Every row's observation, clipped to ``[lo, hi]`` in float64 and stored as float32 into ``obs``
     (``BatchedTask._clip_obs(_observe(rows))``)."""
     for i in range(obs.shape[0]):
-        _obs_clip_row(meas, vel, cur, force, extra, n_extra, lo, hi, obs, i)
+        obs_clip_row(meas, vel, cur, force, extra, n_extra, lo, hi, obs, i)
 
 
 @register_jitable
-def _clip_action(a: np.ndarray, i: int) -> tuple[float, bool]:
+def clip_action(a: np.ndarray, i: int) -> tuple[float, bool]:
     """Row ``i``'s command clipped to ``[-1, 1]`` and whether it was outside (``task._clip_actions``)."""
     v = a[i, 0]
     return min(max(v, -1.0), 1.0), abs(v) > 1.0
 
 
 @register_jitable
-def _n_flagged(flags: np.ndarray) -> int:
+def n_flagged(flags: np.ndarray) -> int:
     """Number of nonzero entries (rows flagged by a compiled step)."""
     k = 0
     for v in flags:
@@ -459,9 +459,9 @@ def _n_flagged(flags: np.ndarray) -> int:
 
 
 @register_jitable
-def _obs_clip_row(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
+def obs_clip_row(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, force: np.ndarray, extra: np.ndarray,
                   n_extra: int, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, i: int) -> None:
     """Row ``i`` of :func:`_obs_clip_into`."""
     o = np.empty(6 + n_extra)
     _obs_row(meas, vel, cur, force, extra, n_extra, i, o)
-    _clip_obs_row(o, lo, hi, obs, i)
+    clip_obs_row(o, lo, hi, obs, i)

@@ -24,15 +24,15 @@ from vsa_gym.envs.elpas_common import (
     OUT_F,
     OUT_NEW_SEGMENT,
     ElpasTask,
-    _clip_action,
-    _drive_margins_row,
-    _drive_row,
-    _energy_row,
-    _n_flagged,
-    _obs_clip_row,
-    _obs_rows,
+    clip_action,
+    drive_margins_row,
+    drive_row,
+    energy_row,
+    n_flagged,
+    obs_clip_row,
+    obs_rows,
 )
-from vsa_gym.envs.signals import Multisine, SegmentReference, _multisine_value, _segment_value
+from vsa_gym.envs.signals import Multisine, SegmentReference, multisine_value, segment_value
 from vsa_gym.envs.task import (
     OUT_CLIPPED,
     OUT_FAIL,
@@ -40,7 +40,7 @@ from vsa_gym.envs.task import (
     STATUS_BAD_ACTION,
     ObsChannel,
     TaskEnv,
-    _actions_finite,
+    actions_finite,
     failure_charge,
     failure_horizon,
     horizon_from_time_limit,
@@ -124,7 +124,7 @@ class ForceTrackingTask(ElpasTask):
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         s = self.s
-        return _obs_rows(s["meas"], s["vel"], s["cur"], s["force"], s["f_ref"], 2, np.asarray(rows, dtype=np.intp))
+        return obs_rows(s["meas"], s["vel"], s["cur"], s["force"], s["f_ref"], 2, np.asarray(rows, dtype=np.intp))
 
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         return self._drive_margins(rows)
@@ -162,14 +162,14 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     cur, force = drv[:, D_CUR], drv[:, D_FORCE]
     dt = cfg[C_DT]
     t_new = t[i] + dt
-    cmd, clipped = _clip_action(a, i)
+    cmd, clipped = clip_action(a, i)
     prescribed = w[6] != 0.0
     k_new = min(int(np.rint(t_new / dt)), tables.shape[2] - 1)
-    alpha_end = tables[1, i, k_new] if prescribed else _multisine_value(ms_A, ms_w, ms_phi, ms_sphi, t_new, i)
-    e_el, F, _ = _drive_row(x, i, cmd, alpha_end, P, pi_int, i2t, meas, vel, cfg)
+    alpha_end = tables[1, i, k_new] if prescribed else multisine_value(ms_A, ms_w, ms_phi, ms_sphi, t_new, i)
+    e_el, F, _ = drive_row(x, i, cmd, alpha_end, P, pi_int, i2t, meas, vel, cfg)
     cur[i], force[i] = x[i, em.CURRENT], F  # the readings without noise (Python adds it if configured)
-    charged = _energy_row(i, e_el, drv[:, D_E_EL], drv[:, D_E_CH], drv[:, D_P_LAST], cfg, out)
-    mg, mi = _drive_margins_row(x, i, i2t, P, cfg)
+    charged = energy_row(i, e_el, drv[:, D_E_EL], drv[:, D_E_CH], drv[:, D_P_LAST], cfg, out)
+    mg, mi = drive_margins_row(x, i, i2t, P, cfg)
     err = F - f_ref[i]
     fail = (mg <= 0) or (mi <= 0)
     r_force = -w[0] * (err / w[1]) ** 2
@@ -185,9 +185,9 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     if prescribed:
         f_ref[i], ended = tables[0, i, k_new], False
     else:
-        f_ref[i], ended = _segment_value(kind, t0, T, v0, v1, A, f, t_new, i)
+        f_ref[i], ended = segment_value(kind, t0, T, v0, v1, A, f, t_new, i)
     out[m + OUT_NEW_SEGMENT, i] = 1.0 if ended else 0.0
-    _obs_clip_row(meas, vel, cur, force, f_ref, 2, lo, hi, obs, i)
+    obs_clip_row(meas, vel, cur, force, f_ref, 2, lo, hi, obs, i)
     t[i] = t_new  # the time after the step
 
 
@@ -199,12 +199,12 @@ def _force_tracking_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.nd
                          obs: np.ndarray, out: np.ndarray) -> int:
     """:func:`_force_tracking_row` for every row: ``STATUS_BAD_ACTION`` (nothing changed) if an action is not
     finite, else the number of rows whose reference segment has ended."""
-    if not _actions_finite(a):
+    if not actions_finite(a):
         return STATUS_BAD_ACTION
     for i in range(x.shape[0]):
         _force_tracking_row(i, a, x, P, cfg, w, drv, t, ms_A, ms_w, ms_phi, ms_sphi, kind, t0, T, v0, v1, A, f, f_ref,
                             tables, lo, hi, obs, out)
-    return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
+    return n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
 
 
 @numba.njit(cache=True, parallel=True)
@@ -214,12 +214,12 @@ def _force_tracking_rows_par(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
                              v1: np.ndarray, A: np.ndarray, f: np.ndarray, f_ref: np.ndarray, tables: np.ndarray,
                              lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> int:
     """:func:`_force_tracking_rows` with the rows spread over the cores (rows are independent)."""
-    if not _actions_finite(a):
+    if not actions_finite(a):
         return STATUS_BAD_ACTION
     for i in numba.prange(x.shape[0]):
         _force_tracking_row(i, a, x, P, cfg, w, drv, t, ms_A, ms_w, ms_phi, ms_sphi, kind, t0, T, v0, v1, A, f, f_ref,
                             tables, lo, hi, obs, out)
-    return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
+    return n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT])
 
 
 ForceTrackingTask._kernels = (_force_tracking_rows, _force_tracking_rows_par)

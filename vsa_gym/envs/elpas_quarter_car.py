@@ -26,13 +26,13 @@ from vsa_gym.envs.elpas_common import (
     OUT_F,
     OUT_NEW_SEGMENT,
     ElpasTask,
-    _clip_action,
-    _drive_margins_row,
-    _drive_row,
-    _energy_row,
-    _n_flagged,
-    _obs_clip_row,
-    _obs_rows,
+    clip_action,
+    drive_margins_row,
+    drive_row,
+    energy_row,
+    n_flagged,
+    obs_clip_row,
+    obs_rows,
 )
 from vsa_gym.envs.sensing import add_noise
 from vsa_gym.envs.task import (
@@ -43,7 +43,7 @@ from vsa_gym.envs.task import (
     STATUS_BAD_STATE,
     ObsChannel,
     TaskEnv,
-    _actions_finite,
+    actions_finite,
     failure_charge,
     failure_horizon,
     horizon_from_time_limit,
@@ -178,7 +178,7 @@ class QuarterCarTask(ElpasTask):
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         s = self.s
-        return _obs_rows(s["meas"], s["vel"], s["cur"], s["force"], s["acc_meas"], 1, np.asarray(rows, dtype=np.intp))
+        return obs_rows(s["meas"], s["vel"], s["cur"], s["force"], s["acc_meas"], 1, np.asarray(rows, dtype=np.intp))
 
     def _traces(self, rows: np.ndarray) -> np.ndarray:
         p = self.params
@@ -234,7 +234,7 @@ def _quarter_car_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarr
     alpha = x[i, em.ALPHA]
     F_t = em._tyre_force_point(x[i, em.Y_S], alpha, x[i, em.Y_R], p)
     F0 = (p.car.m_s + p.car.m_u) * GRAVITY
-    mg, mi = _drive_margins_row(x, i, i2t, P, cfg)
+    mg, mi = drive_margins_row(x, i, i2t, P, cfg)
     return mg, mi, p.cone.alpha_max - abs(alpha), F_t / F0, F_t, F0
 
 
@@ -267,14 +267,14 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     cur, force = drv[:, D_CUR], drv[:, D_FORCE]
     road_steps = road.shape[1] - 1
     dt = cfg[C_DT]
-    cmd, clipped = _clip_action(a, i)
+    cmd, clipped = clip_action(a, i)
     k = road_k[i] + 1
     road_end = road[i, min(k, road_steps)]
     v_before = x[i, em.V_S]
-    e_el, F, finite = _drive_row(x, i, cmd, road_end, P, pi_int, i2t, meas, vel, cfg)
+    e_el, F, finite = drive_row(x, i, cmd, road_end, P, pi_int, i2t, meas, vel, cfg)
     cur[i], force[i] = x[i, em.CURRENT], F  # the readings without noise (Python adds it if configured)
     road_k[i] = k
-    charged = _energy_row(i, e_el, drv[:, D_E_EL], drv[:, D_E_CH], drv[:, D_P_LAST], cfg, out)
+    charged = energy_row(i, e_el, drv[:, D_E_EL], drv[:, D_E_CH], drv[:, D_P_LAST], cfg, out)
     acc = (x[i, em.V_S] - v_before) / dt
     aw = _sos_row(sos, acc, zi, i)  # the streaming ISO 2631-1 W_k filter of sos_step
     acc_s[i], acc_meas[i], a_w[i] = acc, acc, aw  # reading without noise (Python adds it if configured)
@@ -301,7 +301,7 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     out[m + OUT_CLIPPED, i] = 1.0 if clipped else 0.0
     out[m + OUT_F, i] = F
     out[m + OUT_NEW_SEGMENT, i] = 1.0 if k >= road_steps else 0.0
-    _obs_clip_row(meas, vel, cur, force, acc_meas, 1, lo, hi, obs, i)
+    obs_clip_row(meas, vel, cur, force, acc_meas, 1, lo, hi, obs, i)
     t[i] = t_new  # the time after the step
     return finite
 
@@ -313,14 +313,14 @@ def _quarter_car_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.ndarr
                       hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> int:
     """:func:`_quarter_car_row` for every row: ``STATUS_BAD_ACTION`` (nothing changed) if an action is not finite,
     ``STATUS_BAD_STATE`` if a new state is not finite, else the number of rows whose road stretch has ended."""
-    if not _actions_finite(a):
+    if not actions_finite(a):
         return STATUS_BAD_ACTION
     ok = True
     for i in range(x.shape[0]):
         fin = _quarter_car_row(i, a, x, P, cfg, w, drv, t, road, road_k, sos, zi, acc_s, acc_meas, a_w, aw_sq, lo,
                                hi, obs, out)
         ok = ok and fin
-    return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT]) if ok else STATUS_BAD_STATE
+    return n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT]) if ok else STATUS_BAD_STATE
 
 
 @numba.njit(cache=True, parallel=True)
@@ -329,14 +329,14 @@ def _quarter_car_rows_par(a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: np.n
                           acc_s: np.ndarray, acc_meas: np.ndarray, a_w: np.ndarray, aw_sq: np.ndarray, lo: np.ndarray,
                           hi: np.ndarray, obs: np.ndarray, out: np.ndarray) -> int:
     """:func:`_quarter_car_rows` with the rows spread over the cores (rows are independent)."""
-    if not _actions_finite(a):
+    if not actions_finite(a):
         return STATUS_BAD_ACTION
     bad = 0
     for i in numba.prange(x.shape[0]):
         if not _quarter_car_row(i, a, x, P, cfg, w, drv, t, road, road_k, sos, zi, acc_s, acc_meas, a_w, aw_sq, lo,
                                 hi, obs, out):
             bad += 1
-    return _n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT]) if bad == 0 else STATUS_BAD_STATE
+    return n_flagged(out[-N_OUT_TAIL + OUT_NEW_SEGMENT]) if bad == 0 else STATUS_BAD_STATE
 
 
 QuarterCarTask._kernels = (_quarter_car_rows, _quarter_car_rows_par)

@@ -113,13 +113,13 @@ def _segment_values(kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndar
     ended = np.empty(n, dtype=np.bool_)
     n_ended = 0
     for i in range(n):
-        out[i], ended[i] = _segment_value(kind, t0, T, v0, v1, A, f, t[i], i)
+        out[i], ended[i] = segment_value(kind, t0, T, v0, v1, A, f, t[i], i)
         n_ended += ended[i]
     return out, ended, n_ended
 
 
 @register_jitable
-def _segment_value(kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray, v1: np.ndarray, A: np.ndarray,
+def segment_value(kind: np.ndarray, t0: np.ndarray, T: np.ndarray, v0: np.ndarray, v1: np.ndarray, A: np.ndarray,
                    f: np.ndarray, t: float, i: int) -> tuple[float, bool]:
     """Row ``i`` of :func:`_segment_values` at time ``t``: ``(value, ended)``."""
     tau = t - t0[i]
@@ -186,12 +186,12 @@ def _multisine_values(A: np.ndarray, w: np.ndarray, phi: np.ndarray, sphi: np.nd
     """
     out = np.empty(A.shape[0])
     for i in range(A.shape[0]):
-        out[i] = _multisine_value(A, w, phi, sphi, t[i], i)
+        out[i] = multisine_value(A, w, phi, sphi, t[i], i)
     return out
 
 
 @register_jitable
-def _multisine_value(A: np.ndarray, w: np.ndarray, phi: np.ndarray, sphi: np.ndarray, tt: float, i: int) -> float:
+def multisine_value(A: np.ndarray, w: np.ndarray, phi: np.ndarray, sphi: np.ndarray, tt: float, i: int) -> float:
     """Row ``i`` of :func:`_multisine_values` at time ``tt``."""
     k = A.shape[1]
     if k < 8:

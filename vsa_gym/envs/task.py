@@ -326,7 +326,7 @@ a non-finite new state."""
 
 
 @register_jitable
-def _actions_finite(a: np.ndarray) -> bool:
+def actions_finite(a: np.ndarray) -> bool:
     """All actions finite? (checked by the compiled steps before they change anything)."""
     for i in range(a.shape[0]):
         for k in range(a.shape[1]):
@@ -336,7 +336,7 @@ def _actions_finite(a: np.ndarray) -> bool:
 
 
 @register_jitable
-def _clip_obs_row(o: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, i: int) -> None:
+def clip_obs_row(o: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray, i: int) -> None:
     """``BatchedTask._clip_obs`` of one row: ``o`` clipped in float64, stored into ``obs[i]``."""
     for k in range(o.shape[0]):
         obs[i, k] = min(max(o[k], lo[k]), hi[k])

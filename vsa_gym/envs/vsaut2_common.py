@@ -24,7 +24,7 @@ Each drive's I^2 t utilisation (heating state over its trip threshold, 1 = trip)
 (``i2t_1``, ``i2t_2``), as servo drives report it (e.g. maxon EPOS): without it the trip is a
 hidden state that neither a controller nor an agent could anticipate.
 
-Step: one compiled call for all rows (the task's ``_*_rows``, built from :func:`_drive_all` -- the core's
+Step: one compiled call for all rows (the task's ``_*_rows``, built from :func:`drive_all` -- the core's
 own compiled RK4/ETD step, the amplifier law, the sensing of :func:`_sense_update` -- and the row
 functions of the energy, margins and observation, which the reset-time methods call too); Python keeps the
 noise draws, the reference segment renewals and ``info``.  This is the only implementation of a task step
@@ -58,20 +58,20 @@ from vsa_gym.physics.lever import lever_ratio, spring_stiffness
 from vsa_gym.physics.pivot import pivot_position
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 from vsa_gym.vsaut2.model import (
-    _P_ROW,
     ETD_SUBSTEPS_PER_MS,
     INTEGRATORS,
     N_POWER,
+    P_ROW,
     PARALLEL_MIN_ROWS,
     POWER,
     STATE,
     SUBSTEPS_PER_MS,
     VsaUT2Model,
-    _all_finite,
-    _etd_compiled,
-    _etd_compiled_parallel,
-    _rk4_compiled,
-    _rk4_compiled_parallel,
+    all_finite,
+    etd_rows,
+    etd_rows_parallel,
+    rk4_rows,
+    rk4_rows_parallel,
 )
 from vsa_gym.vsaut2.params import VsaUT2Params
 
@@ -102,7 +102,7 @@ N_K = 12
 # columns of the drive bookkeeping array ``s["drive"]`` (``s["i2t"]``, ``s["meas"]``, ... are views of them)
 D_I2T, D_MEAS, D_VEL, D_CUR, D_E_EL, D_E_CH = 0, 2, 5, 8, 10, 11
 N_DRIVE = 12
-# the info values every vsaUT-II task's compiled step writes first into ``out`` (:func:`_energy_row`, ``_margins``)
+# the info values every vsaUT-II task's compiled step writes first into ``out`` (:func:`energy_row`, ``_margins``)
 ENERGY_INFO = ("energy_el", "energy_el_pivot", "energy_el_frame", "energy_charged", "energy_el_total",
                "energy_charged_total")
 MARGIN_INFO = ("margin_frame_stop", "margin_deflection_stop", "margin_i2t", "margin_pivot_stroke")
@@ -292,11 +292,11 @@ class VsaUT2Task(CompiledStepTask):
         """The ``N_COMMON_OBS`` common channels of ``rows`` (compiled: eq. 5 and eq. 6 on the quantised angles)."""
         c = self._cols()
         return _common_obs_rows(self.s["meas"], self.s["vel"], self.s["cur"], self.s["i2t"], c["i2t_lim"],
-                                self.model._p_rows, c["K_b"], c["ratio"], np.asarray(rows, dtype=np.intp))
+                                self.model.p_rows, c["K_b"], c["ratio"], np.asarray(rows, dtype=np.intp))
 
     def _stiffness(self) -> np.ndarray:
         """True output stiffness of every row, ``VsaUT2Model.stiffness`` (eq. 6 in series with the belt), compiled."""
-        return _true_stiffness(self.s["x"], self.model._p_rows, self._cols()["K_b"])
+        return _true_stiffness(self.s["x"], self.model.p_rows, self._cols()["K_b"])
 
     # ------------------------------------------------------------------ failures and margins
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
@@ -433,7 +433,7 @@ def _common_obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, i2t: np
 def _common_obs_row(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, i2t: np.ndarray, i2t_lim: np.ndarray,
                     P: np.ndarray, K_b: np.ndarray, ratio: np.ndarray, i: int, o: np.ndarray) -> None:
     """Row ``i`` of :func:`_common_obs_rows` into ``o[:N_COMMON_OBS]``."""
-    p = _P_ROW(P, i)
+    p = P_ROW(P, i)
     q1 = pivot_position(p.pivot, meas[i, 0] / p.pivot_gearbox.n)
     q2 = meas[i, 1] / ratio[i]
     K_s = spring_stiffness(p.lever, q1, meas[i, 2] - q2)
@@ -450,14 +450,14 @@ def _true_stiffness(x: np.ndarray, P: np.ndarray, K_b: np.ndarray) -> np.ndarray
     """``VsaUT2Model.stiffness(x)``: eq. (6) at the true pivot and deflection in series with the belt, ``(n,)``."""
     out = np.empty(x.shape[0])
     for i in range(x.shape[0]):
-        out[i] = _true_stiffness_row(x, P, K_b, i)
+        out[i] = true_stiffness_row(x, P, K_b, i)
     return out
 
 
 @register_jitable
-def _true_stiffness_row(x: np.ndarray, P: np.ndarray, K_b: np.ndarray, i: int) -> float:
+def true_stiffness_row(x: np.ndarray, P: np.ndarray, K_b: np.ndarray, i: int) -> float:
     """Row ``i`` of :func:`_true_stiffness`."""
-    p = _P_ROW(P, i)
+    p = P_ROW(P, i)
     K_s = spring_stiffness(p.lever, pivot_position(p.pivot, x[i, _TH1] / p.pivot_gearbox.n), x[i, _R] - x[i, _Q2])
     return series_stiffness(K_s, K_b[i])
 
@@ -489,7 +489,7 @@ def _margin_row(x: np.ndarray, i2t: np.ndarray, th1_max: np.ndarray, q2_max: np.
 
 
 @register_jitable
-def _drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarray, P: np.ndarray, D: np.ndarray,
+def drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarray, P: np.ndarray, D: np.ndarray,
                C: np.ndarray, cfg: np.ndarray, drv: np.ndarray, e_m: np.ndarray, clipped: np.ndarray) -> bool:
     """One control step of the drives and the core for every row on the raw (finite) actions ``a`` ``(n, 2)``.
 
@@ -516,7 +516,7 @@ def _drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarra
             if not enabled[i]:
                 u[i, 0], u[i, 1] = 0.0, 0.0
             elif current:
-                p = _P_ROW(P, i)
+                p = P_ROW(P, i)
                 u[i, 0] = current_control_voltage(p.pivot_motor, cmd[i, 0] * C[i, K_I1], xc[i, _I1], xc[i, _W1], bw)
                 u[i, 1] = current_control_voltage(p.frame_motor, cmd[i, 1] * C[i, K_I2], xc[i, _I2], xc[i, _W2], bw)
             else:
@@ -524,10 +524,10 @@ def _drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarra
         # the core's serial kernels: a cached function calling the parallel ones crashes when loaded from the
         # cache; threaded_variant builds an uncached copy of the step that calls the parallel ones
         if etd:
-            x_new, e = _etd_compiled(xc, u, tau, P, D, h, n_sub)
+            x_new, e = etd_rows(xc, u, tau, P, D, h, n_sub)
         else:
-            x_new, e = _rk4_compiled(xc, u, tau, P, D, h, n_sub)
-        if not _all_finite(x_new):
+            x_new, e = rk4_rows(xc, u, tau, P, D, h, n_sub)
+        if not all_finite(x_new):
             return False
         xc[:] = x_new
         for i in range(n):
@@ -544,7 +544,7 @@ def _drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarra
 
 
 @register_jitable
-def _energy_row(i: int, e_m: np.ndarray, drv: np.ndarray, cfg: np.ndarray, out: np.ndarray) -> float:
+def energy_row(i: int, e_m: np.ndarray, drv: np.ndarray, cfg: np.ndarray, out: np.ndarray) -> float:
     """Row ``i``'s step energies into ``out[:6, i]`` (``ENERGY_INFO``), the totals in ``drv``; returns the charged
     energy."""
     e0, e1 = e_m[i, 0], e_m[i, 1]
@@ -558,7 +558,7 @@ def _energy_row(i: int, e_m: np.ndarray, drv: np.ndarray, cfg: np.ndarray, out: 
 
 
 @register_jitable
-def _margins_into(x: np.ndarray, drv: np.ndarray, C: np.ndarray, i: int, out: np.ndarray, k: int) -> bool:
+def margins_into(x: np.ndarray, drv: np.ndarray, C: np.ndarray, i: int, out: np.ndarray, k: int) -> bool:
     """Row ``i``'s margins (``MARGIN_INFO``) into ``out[k:k + 4, i]``; returns the failure flag (frame or deflection
     end stop, I^2 t trip)."""
     mg = _margin_row(x, drv[:, D_I2T:D_I2T + 2], C[:, K_TH1_MAX], C[:, K_Q2_MAX], C[:, K_PHI_MAX],
@@ -568,7 +568,7 @@ def _margins_into(x: np.ndarray, drv: np.ndarray, C: np.ndarray, i: int, out: np
 
 
 @register_jitable
-def _common_obs_of(x: np.ndarray, P: np.ndarray, C: np.ndarray, drv: np.ndarray, i: int, o: np.ndarray) -> None:
+def common_obs_of(x: np.ndarray, P: np.ndarray, C: np.ndarray, drv: np.ndarray, i: int, o: np.ndarray) -> None:
     """Row ``i``'s common observation channels (:meth:`VsaUT2Task._common_obs`) into ``o``."""
     _common_obs_row(drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_CUR:D_CUR + 2],
                     drv[:, D_I2T:D_I2T + 2], C[:, K_LIM1:K_LIM2 + 1], P, C[:, K_KB], C[:, K_RATIO], i, o)
@@ -577,15 +577,15 @@ def _common_obs_of(x: np.ndarray, P: np.ndarray, C: np.ndarray, drv: np.ndarray,
 def threaded_variant(kernel: Any) -> Any:
     """A task's compiled step (``numba`` dispatcher) rebuilt around the core's threaded kernels, uncached.
 
-    The copy runs the same code (its ``py_func``) with :func:`_drive_all` replaced by a copy that calls
-    ``_rk4_compiled_parallel`` / ``_etd_compiled_parallel``: the rows of the core's step spread over the cores,
+    The copy runs the same code (its ``py_func``) with :func:`drive_all` replaced by a copy that calls
+    ``rk4_rows_parallel`` / ``etd_rows_parallel``: the rows of the core's step spread over the cores,
     everything else as in the serial step, so the two give the same numbers.  Uncached, because a cached
     function that calls the parallel kernels crashes when loaded from the cache; it compiles on first use.
     """
-    drive = register_jitable(_with_globals(_drive_all, "_threaded", _rk4_compiled=_rk4_compiled_parallel,
-                                           _etd_compiled=_etd_compiled_parallel))
+    drive = register_jitable(_with_globals(drive_all, "_threaded", rk4_rows=rk4_rows_parallel,
+                                           etd_rows=etd_rows_parallel))
     py_func = getattr(kernel, "py_func", kernel)  # a plain function under NUMBA_DISABLE_JIT=1
-    return numba.njit(cache=False)(_with_globals(py_func, "_threaded", _drive_all=drive))
+    return numba.njit(cache=False)(_with_globals(py_func, "_threaded", drive_all=drive))
 
 
 def _with_globals(f: Any, suffix: str, **names: Any) -> Any:

@@ -7,7 +7,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from vsa_gym.envs.signals import SegmentReference, _segment_value
+from vsa_gym.envs.signals import SegmentReference, segment_value
 from vsa_gym.envs.task import (
     OUT_CLIPPED,
     OUT_FAIL,
@@ -16,8 +16,8 @@ from vsa_gym.envs.task import (
     STATUS_BAD_STATE,
     ObsChannel,
     TaskEnv,
-    _actions_finite,
-    _clip_obs_row,
+    actions_finite,
+    clip_obs_row,
     failure_charge,
     failure_horizon,
     horizon_from_time_limit,
@@ -26,7 +26,6 @@ from vsa_gym.envs.task import (
 )
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.envs.vsaut2_common import (
-    _R,
     C_DT,
     ENERGY_INFO,
     K_FLOOR,
@@ -36,14 +35,16 @@ from vsa_gym.envs.vsaut2_common import (
     N_COMMON_OBS,
     OUT_NEW_SEGMENT,
     VsaUT2Task,
-    _common_obs_of,
-    _drive_all,
-    _energy_row,
-    _margins_into,
-    _true_stiffness_row,
+    common_obs_of,
+    drive_all,
+    energy_row,
+    margins_into,
     threaded_variant,
+    true_stiffness_row,
 )
 from vsa_gym.vsaut2.model import STATE
+
+_R = STATE["r"]  # a state column the compiled step can fold
 
 N_SEG = 7  # columns of one SegmentReference in s["seg"] (its keys, in SegmentReference._keys order)
 
@@ -162,7 +163,7 @@ class PositionStiffnessTask(VsaUT2Task):
 
     def _build_kernel_args(self) -> tuple[Any, ...]:
         s = self.s
-        return (s["x"], self.model._p_rows, self.model._d_rows, self._row_cols(), self._cfg, self._weights,
+        return (s["x"], self.model.p_rows, self.model.d_rows, self._row_cols(), self._cfg, self._weights,
                 s["drive"], s["refs"], s["seg"], s["steps"], s["t"], self._obs_lo64, self._obs_hi64, s["obs"])
 
     def _after_kernel(self, out: np.ndarray) -> None:
@@ -197,7 +198,7 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
                              out: np.ndarray) -> int:
     """One control step of the task for every row in one call (what ``step`` returns, up to ``info``).
 
-    The drive and core step of all rows (:func:`~vsa_gym.envs.vsaut2_common._drive_all`), then per row: true
+    The drive and core step of all rows (:func:`~vsa_gym.envs.vsaut2_common.drive_all`), then per row: true
     stiffness, errors, energy, margins, failure, reward terms into ``out[:, i]`` (``step_info``, the reward
     terms, the ``OUT_*`` tail with one renewal flag per signal), the references and the disturbance at the new
     time (:class:`SegmentReference`), the time and the noise-free clipped observation.  ``refs``: ``s["refs"]``
@@ -205,24 +206,24 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
     log_stiffness_scale, w_energy, failure_penalty, episode_steps]``.  Returns ``STATUS_BAD_ACTION`` or
     ``STATUS_BAD_STATE`` (nothing changed), else the number of renewal flags set.
     """
-    if not _actions_finite(a):
+    if not actions_finite(a):
         return STATUS_BAD_ACTION
     n = x.shape[0]
     tau = refs[:, 2].copy()  # the disturbance held over the step
     e_m = np.empty((n, 2))
     clipped = np.empty(n, dtype=np.bool_)
-    if not _drive_all(a, x, tau, np.ones(n, dtype=np.bool_), P, D, C, cfg, drv, e_m, clipped):
+    if not drive_all(a, x, tau, np.ones(n, dtype=np.bool_), P, D, C, cfg, drv, e_m, clipped):
         return STATUS_BAD_STATE
     m = len(ENERGY_INFO) + len(MARGIN_INFO) + 3 + 4
     o = np.empty(N_COMMON_OBS + 4)
     flagged = 0
     for i in range(n):
         t_new = t[i] + cfg[C_DT]
-        logK = np.log(max(_true_stiffness_row(x, P, C[:, K_KB], i), K_FLOOR))
+        logK = np.log(max(true_stiffness_row(x, P, C[:, K_KB], i), K_FLOOR))
         e_r = x[i, _R] - refs[i, 0]
         e_k = logK - refs[i, 1]
-        charged = _energy_row(i, e_m, drv, cfg, out)
-        fail = _margins_into(x, drv, C, i, out, 6)
+        charged = energy_row(i, e_m, drv, cfg, out)
+        fail = margins_into(x, drv, C, i, out, 6)
         steps[i] += 1
         r_pos = -w[0] * (e_r / w[1]) ** 2
         r_stf = -w[2] * (e_k / w[3]) ** 2
@@ -235,15 +236,15 @@ def _position_stiffness_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.
         out[m + OUT_CLIPPED, i] = 1.0 if clipped[i] else 0.0
         for j in range(3):
             b = N_SEG * j
-            refs[i, j], ended = _segment_value(seg[:, b], seg[:, b + 1], seg[:, b + 2], seg[:, b + 3], seg[:, b + 4],
+            refs[i, j], ended = segment_value(seg[:, b], seg[:, b + 1], seg[:, b + 2], seg[:, b + 3], seg[:, b + 4],
                                                seg[:, b + 5], seg[:, b + 6], t_new, i)
             out[m + OUT_NEW_SEGMENT + j, i] = 1.0 if ended else 0.0
             flagged += ended
         t[i] = t_new  # the time after the step
-        _common_obs_of(x, P, C, drv, i, o)
+        common_obs_of(x, P, C, drv, i, o)
         o[N_COMMON_OBS], o[N_COMMON_OBS + 1] = refs[i, 0], refs[i, 1]
         o[N_COMMON_OBS + 2], o[N_COMMON_OBS + 3] = refs[i, 0] - o[2], refs[i, 1] - o[8]
-        _clip_obs_row(o, lo, hi, obs, i)
+        clip_obs_row(o, lo, hi, obs, i)
     return flagged
 
 

@@ -15,15 +15,13 @@ from vsa_gym.envs.task import (
     STATUS_BAD_STATE,
     ObsChannel,
     TaskEnv,
-    _actions_finite,
-    _clip_obs_row,
+    actions_finite,
+    clip_obs_row,
     indent,
     obs_table,
 )
 from vsa_gym.envs.vector import TaskVectorEnv
 from vsa_gym.envs.vsaut2_common import (
-    _R,
-    _R_DOT,
     C_DT,
     D_E_CH,
     ENERGY_INFO,
@@ -31,13 +29,15 @@ from vsa_gym.envs.vsaut2_common import (
     MARGIN_INFO,
     N_COMMON_OBS,
     VsaUT2Task,
-    _common_obs_of,
-    _drive_all,
-    _energy_row,
-    _margins_into,
+    common_obs_of,
+    drive_all,
+    energy_row,
+    margins_into,
     threaded_variant,
 )
 from vsa_gym.vsaut2.model import STATE
+
+_R, _R_DOT = STATE["r"], STATE["r_dot"]  # state columns the compiled step can fold
 
 
 class ThrowTask(VsaUT2Task):
@@ -89,7 +89,7 @@ class ThrowTask(VsaUT2Task):
 
     def _build_kernel_args(self) -> tuple[Any, ...]:
         s = self.s
-        return (s["x"], self.model._p_rows, self.model._d_rows, self._row_cols(), self._cfg, self._weights,
+        return (s["x"], self.model.p_rows, self.model.d_rows, self._row_cols(), self._cfg, self._weights,
                 s["drive"], s["t"], self._obs_lo64, self._obs_hi64, s["obs"])
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
@@ -120,12 +120,12 @@ def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: n
     """One control step of the task for every row in one call (what ``step`` returns, up to ``info``).
 
     The drive and core step of all rows (switched off where the budget is spent;
-    :func:`~vsa_gym.envs.vsaut2_common._drive_all`), then per row: energy, release, margins, failure and the
+    :func:`~vsa_gym.envs.vsaut2_common.drive_all`), then per row: energy, release, margins, failure and the
     reward terms into ``out[:, i]`` (``step_info``, the reward terms, the ``OUT_*`` tail), the time and the
     noise-free clipped observation.  ``w = [release_angle, energy_budget, horizon_s, failure_penalty]``.
     Returns ``STATUS_BAD_ACTION`` or ``STATUS_BAD_STATE`` (nothing changed), else 0.
     """
-    if not _actions_finite(a):
+    if not actions_finite(a):
         return STATUS_BAD_ACTION
     n = x.shape[0]
     r_before = x[:, _R].copy()
@@ -134,15 +134,15 @@ def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: n
         enabled[i] = drv[i, D_E_CH] < w[1]
     e_m = np.empty((n, 2))
     clipped = np.empty(n, dtype=np.bool_)
-    if not _drive_all(a, x, np.zeros(n), enabled, P, D, C, cfg, drv, e_m, clipped):
+    if not drive_all(a, x, np.zeros(n), enabled, P, D, C, cfg, drv, e_m, clipped):
         return STATUS_BAD_STATE
     m = len(ENERGY_INFO) + len(MARGIN_INFO) + 4 + 2
     o = np.empty(N_COMMON_OBS + 2)
     for i in range(n):
-        _energy_row(i, e_m, drv, cfg, out)
+        energy_row(i, e_m, drv, cfg, out)
         r, r_dot = x[i, _R], x[i, _R_DOT]
         released = r_before[i] < w[0] and r >= w[0]
-        fail = _margins_into(x, drv, C, i, out, 6) and not released
+        fail = margins_into(x, drv, C, i, out, 6) and not released
         r_rel = max(r_dot, 0.0) if released else 0.0
         r_fail = -w[3] if fail else 0.0
         out[10, i], out[11, i] = 1.0 if released else 0.0, r_dot if released else 0.0
@@ -152,10 +152,10 @@ def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: n
         out[m + OUT_FAIL, i] = 1.0 if released or fail else 0.0
         out[m + OUT_CLIPPED, i] = 1.0 if clipped[i] else 0.0
         t[i] = t[i] + cfg[C_DT]  # the time after the step
-        _common_obs_of(x, P, C, drv, i, o)
+        common_obs_of(x, P, C, drv, i, o)
         o[N_COMMON_OBS] = max(w[1] - drv[i, D_E_CH], 0.0)
         o[N_COMMON_OBS + 1] = max(w[2] - t[i], 0.0)
-        _clip_obs_row(o, lo, hi, obs, i)
+        clip_obs_row(o, lo, hi, obs, i)
     return 0
 
 

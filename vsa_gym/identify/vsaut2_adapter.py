@@ -4,7 +4,7 @@ The replay is the nominal :class:`~vsa_gym.vsaut2.model.VsaUT2Model` (the same
 ``_rhs_point`` the environments integrate), batched over candidate parameter rows:
 the parameters are flattened once (:func:`~vsa_gym.physics.kernels.flatten_rows`),
 each candidate edits its own row, and one numba rollout steps all rows through
-the compiled RK4 (:func:`vsa_gym.vsaut2.model._rk4_compiled`).  The effects are
+the compiled RK4 (:func:`vsa_gym.vsaut2.model.rk4_rows`).  The effects are
 parameters of that core (``params.effects``, :class:`~vsa_gym.vsaut2.params.VsaUT2Effects`)
 or plain parameter errors, so :meth:`Vsaut2Adapter.identified_params` returns a
 :class:`~vsa_gym.vsaut2.params.VsaUT2Params` that ``gym.make(ID, params=...)`` accepts.
@@ -42,7 +42,7 @@ from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.record import Record
 from vsa_gym.physics.kernels import flatten_rows
 from vsa_gym.physics.sensors import AbsoluteEncoder
-from vsa_gym.vsaut2.model import N_STATES, STATE, SUBSTEPS_PER_MS, VsaUT2Model, _rk4_compiled
+from vsa_gym.vsaut2.model import N_STATES, STATE, SUBSTEPS_PER_MS, VsaUT2Model, rk4_rows
 from vsa_gym.vsaut2.params import VsaUT2Params
 
 OUTPUT_STATE = {"r": STATE["r"], "q2": STATE["q2"], "i2": STATE["i2"]}
@@ -100,7 +100,7 @@ def _rollout(x0: np.ndarray, u: np.ndarray, tau: np.ndarray, mode: int, P: np.nd
             for i in range(n):
                 uk[i, 0] = u[k, 0]
                 uk[i, 1] = u[k, 1]
-            x, _ = _rk4_compiled(x, uk, tau[k], P, D, dt, n_sub)
+            x, _ = rk4_rows(x, uk, tau[k], P, D, dt, n_sub)
         else:
             for _ in range(n_sub):
                 for i in range(n):
@@ -109,7 +109,7 @@ def _rollout(x0: np.ndarray, u: np.ndarray, tau: np.ndarray, mode: int, P: np.nd
                         uk[i, 1] = R2 * u[k, 1] + ke2 * x[i, 5] + L2 * wc * (u[k, 1] - x[i, 3])
                     else:
                         uk[i, 1] = -kp * (x[i, 4] - th2_0[i]) - kd * x[i, 5]
-                x, _ = _rk4_compiled(x, uk, tau[k], P, D, h, 1)
+                x, _ = rk4_rows(x, uk, tau[k], P, D, h, 1)
         xs[k + 1] = x
     return xs
 
@@ -226,7 +226,7 @@ class Vsaut2Adapter(Adapter):
             P[:, self.col[name]] = v
         model = VsaUT2Model(self.params)
         x0 = model.initial_state(n, q1=self.q1_0, q2=self.q2_0, r=self.r_0)
-        D = model._d_rows
+        D = model.d_rows
         tau = self.tau[:, None] + _get(theta, "force_offset.F_0", n)[None, :]
         m = self.params.frame_motor
         return _rollout(np.ascontiguousarray(x0[:, :N_STATES]), np.ascontiguousarray(self.u),

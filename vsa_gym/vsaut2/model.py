@@ -204,8 +204,8 @@ class VsaUT2Model:
         object.__setattr__(self, "_d", derived)
         object.__setattr__(self, "_bs", p.batch_size)  # the property walks every field: once, not per step
         # compiled path: every leaf an (m,) float64 array (m = 1 or n), one numba signature batched or not
-        object.__setattr__(self, "_p_rows", flatten_rows(p.as_tuple()))
-        object.__setattr__(self, "_d_rows", flatten_rows(derived))
+        object.__setattr__(self, "p_rows", flatten_rows(p.as_tuple()))
+        object.__setattr__(self, "d_rows", flatten_rows(derived))
 
     @property
     def n_states(self) -> int:
@@ -265,9 +265,9 @@ class VsaUT2Model:
             x, u, tau_ext = x[None, :], np.asarray(u)[None, :], np.atleast_1d(tau_ext)
         if self.compiled and not self.extensions:
             # contiguous float64 inputs keep numba at one compiled signature
-            dx, pw = _rhs_compiled(np.ascontiguousarray(x), np.ascontiguousarray(u, dtype=np.float64),
+            dx, pw = rhs_rows(np.ascontiguousarray(x), np.ascontiguousarray(u, dtype=np.float64),
                                    np.array(np.broadcast_to(tau_ext, x.shape[:1]), dtype=np.float64),
-                                   self._p_rows, self._d_rows)
+                                   self.p_rows, self.d_rows)
             return (dx[0], pw[0]) if flat else (dx, pw)
         ports = np.zeros((x.shape[0], len(PORTS)))
         p_ext_diss = np.zeros(x.shape[0])
@@ -336,12 +336,12 @@ class VsaUT2Model:
                 x_new, energy = rk4(lambda y: self.rhs(y, u, tau), x, dt, n_sub)
         else:
             if etd:
-                kernel = _etd_compiled_parallel if n >= PARALLEL_MIN_ROWS else _etd_compiled
+                kernel = etd_rows_parallel if n >= PARALLEL_MIN_ROWS else etd_rows
             else:
-                kernel = _rk4_compiled_parallel if n >= PARALLEL_MIN_ROWS else _rk4_compiled
+                kernel = rk4_rows_parallel if n >= PARALLEL_MIN_ROWS else rk4_rows
             x_new, energy = kernel(np.ascontiguousarray(x), np.ascontiguousarray(u), np.ascontiguousarray(tau),
-                                   self._p_rows, self._d_rows, float(dt), int(n_sub))
-        if not _all_finite(x_new):  # compiled: a third of np.all(np.isfinite(x)) for one env
+                                   self.p_rows, self.d_rows, float(dt), int(n_sub))
+        if not all_finite(x_new):  # compiled: a third of np.all(np.isfinite(x)) for one env
             raise FloatingPointError("vsaUT-II integration produced a non-finite state; reduce dt")
         return x_new, energy
 
@@ -536,7 +536,7 @@ def _rhs_rows_py(x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any) 
     dx = np.empty((n, N_STATES))
     pw = np.empty((n, N_POWER))
     for i in numba.prange(n):
-        _rhs_row(_P_ROW(P, i), _D_ROW(D, i), x[i], u[i, 0], u[i, 1], tau[i], dx[i], pw[i])
+        _rhs_row(P_ROW(P, i), D_ROW(D, i), x[i], u[i, 0], u[i, 1], tau[i], dx[i], pw[i])
     return dx, pw
 
 
@@ -552,8 +552,8 @@ def _rk4_rows_py(
     x_new = np.empty((n, N_STATES))
     energy = np.zeros((n, N_POWER))
     for i in numba.prange(n):
-        p = _P_ROW(P, i)
-        d = _D_ROW(D, i)
+        p = P_ROW(P, i)
+        d = D_ROW(D, i)
         u_1, u_2, te = u[i, 0], u[i, 1], tau[i]
         y = x[i].copy()
         yt = np.empty(N_STATES)
@@ -594,13 +594,13 @@ def _etd_rows_py(
     x_new = np.empty((n, N_STATES))
     energy = np.zeros((n, N_POWER))
     # rates and weights of row 0; every row's when the parameters are shared (not batched): computed once
-    p0 = _P_ROW(P, 0)
+    p0 = P_ROW(P, 0)
     lam0 = np.array([p0.pivot_motor.R / p0.pivot_motor.L, p0.frame_motor.R / p0.frame_motor.L])
     w0 = etdrk4_weights(lam0, h)
     shared = P.shape[0] == 1
     for i in numba.prange(n):
-        p = _P_ROW(P, i)
-        d = _D_ROW(D, i)
+        p = P_ROW(P, i)
+        d = D_ROW(D, i)
         u_1, u_2, te = u[i, 0], u[i, 1], tau[i]
         if shared:
             lam = lam0
@@ -657,11 +657,11 @@ def _etd_rows_py(
     return x_new, energy
 
 
-_P_ROW = row_reader(VsaUT2Params().as_tuple())
-_D_ROW = row_reader(_Derived(0.0, 0.0, 0.0, 0.0))
+P_ROW = row_reader(VsaUT2Params().as_tuple())
+D_ROW = row_reader(_Derived(0.0, 0.0, 0.0, 0.0))
 
 @numba.njit(cache=True)
-def _all_finite(a: np.ndarray) -> bool:
+def all_finite(a: np.ndarray) -> bool:
     """``np.all(np.isfinite(a))`` for a C-contiguous array, without the temporary."""
     for v in a.ravel():  # noqa: SIM110 (a loop numba compiles; no generator)
         if not np.isfinite(v):
@@ -687,8 +687,8 @@ def _parallel_twin(f: Any) -> Any:
     return twin
 
 
-_rhs_compiled = numba.njit(cache=True)(_rhs_rows_py)
-_rk4_compiled = numba.njit(cache=True)(_rk4_rows_py)
-_rk4_compiled_parallel = numba.njit(cache=True, parallel=True)(_parallel_twin(_rk4_rows_py))
-_etd_compiled = numba.njit(cache=True)(_etd_rows_py)
-_etd_compiled_parallel = numba.njit(cache=True, parallel=True)(_parallel_twin(_etd_rows_py))
+rhs_rows = numba.njit(cache=True)(_rhs_rows_py)
+rk4_rows = numba.njit(cache=True)(_rk4_rows_py)
+rk4_rows_parallel = numba.njit(cache=True, parallel=True)(_parallel_twin(_rk4_rows_py))
+etd_rows = numba.njit(cache=True)(_etd_rows_py)
+etd_rows_parallel = numba.njit(cache=True, parallel=True)(_parallel_twin(_etd_rows_py))
