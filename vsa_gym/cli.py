@@ -25,7 +25,11 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-DEVICES = ("vsaut2", "elpas")
+from vsa_gym.devices import device, devices
+
+#: devices with a paper reproduction / a datasheet (:mod:`vsa_gym.devices`)
+DEVICES: tuple[str, ...] = tuple(d.name for d in devices() if d.reproduce)
+DATASHEETS: tuple[str, ...] = tuple(d.name for d in devices() if d.datasheet)
 
 
 def _reproduce(args: argparse.Namespace) -> int:
@@ -35,7 +39,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         out = out_root / dev if args.device == "all" else out_root
         out.mkdir(parents=True, exist_ok=True)
         t0 = time.perf_counter()
-        module = importlib.import_module(f"vsa_gym.{dev}.reproduce")
+        module = importlib.import_module(str(device(dev).reproduce))
         summary = module.run(out)
         (out / "summary.json").write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n")
         print(f"[{dev}] wrote {out} in {time.perf_counter() - t0:.1f} s")
@@ -45,7 +49,7 @@ def _reproduce(args: argparse.Namespace) -> int:
 
 
 def _datasheet(args: argparse.Namespace) -> int:
-    module = importlib.import_module(f"vsa_gym.{args.device}.datasheet")
+    module = importlib.import_module(str(device(args.device).datasheet))
     rows = module.compute()
     print(module.format_table(rows))
     if args.json:
@@ -109,7 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_reproduce)
 
     p = sub.add_parser("datasheet", help="compute a device datasheet from the model")
-    p.add_argument("device", choices=("vsaut2",))
+    p.add_argument("device", choices=DATASHEETS)
     p.add_argument("--json", default=None, help="also write the rows as JSON to this file")
     p.set_defaults(func=_datasheet)
 

@@ -25,12 +25,10 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-ENV_SPECS: dict[str, tuple[str, int]] = {
-    "VsaUT2-PositionStiffness-v0": ("vsa_gym.envs.vsaut2_position_stiffness:VsaUT2PositionStiffness", 2500),
-    "VsaUT2-Throw-v0": ("vsa_gym.envs.vsaut2_throw:VsaUT2Throw", 500),
-    "ELPAS-ForceTracking-v0": ("vsa_gym.envs.elpas_force_tracking:ElpasForceTracking", 5000),
-    "ELPAS-QuarterCar-v0": ("vsa_gym.envs.elpas_quarter_car:ElpasQuarterCar", 5000),
-}
+from vsa_gym.devices import devices
+
+#: every device's environments (:mod:`vsa_gym.devices`): name -> (entry-point prefix, time limit in steps)
+ENV_SPECS: dict[str, tuple[str, int]] = {e.name: (e.entry, e.max_episode_steps) for d in devices() for e in d.envs}
 ENV_IDS: tuple[str, ...] = tuple(f"vsa_gym/{name}" for name in ENV_SPECS)
 
 

@@ -483,19 +483,15 @@ class DriveAdapter(Adapter):
 
 
 def make_adapter(record: Record, **kw: Any) -> Adapter:
-    if record.device == "drive":
-        return DriveAdapter(record, **kw)
-    if record.device == "vsaut2":
-        from vsa_gym.identify.vsaut2_adapter import Vsaut2Adapter
+    """The identification adapter of the record's device (:mod:`vsa_gym.devices`) replaying ``record``."""
+    from vsa_gym.devices import device
 
-        return Vsaut2Adapter(record, **kw)
-    if record.device == "elpas":
-        from vsa_gym.identify.elpas_adapter import ElpasAdapter
-
-        return ElpasAdapter(record, **kw)
-    raise NotImplementedError(
-        f"identification of {record.device!r} records is not implemented yet: the record format and checker "
-        "cover it, but the replay adapter exists only for the generic drive (see docs/identification.md)")
+    try:
+        cls = device(record.device).adapter_class()
+    except NotImplementedError as exc:
+        raise NotImplementedError(f"identification of {record.device!r} records is not implemented yet: the "
+                                  "record format and checker cover it, but it has no replay adapter") from exc
+    return cls(record, **kw)
 
 
 __all__ = ["Adapter", "DriveAdapter", "make_adapter"]

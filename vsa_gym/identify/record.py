@@ -23,55 +23,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vsa_gym.devices import device as device_spec
+from vsa_gym.devices import devices
+
 FORMAT = "vsa-gym/measured-data/1"
-DEVICES = ("drive", "vsaut2", "elpas")
-
-#: input quantities per device and their allowed units
-INPUTS: dict[str, dict[str, tuple[str, ...]]] = {
-    "drive": {
-        "voltage": ("V",),  # amplifier command, drive force = k_u * voltage
-        "current": ("A",),  # current command of a current-mode amplifier, force = k_u * current
-        "force": ("N", "N m"),  # motor force / torque at the load, given directly
-        "external_force": ("N", "N m"),
-        "feedforward": ("V", "A", "N", "N m"),  # added to the controller output (closed loop)
-        "reference": ("m", "rad"),  # position reference of a closed loop
-    },
-    "vsaut2": {
-        "voltage_pivot": ("V",),
-        "voltage_frame": ("V",),
-        "current_frame": ("A",),  # current-mode amplifier on the frame motor
-        "external_torque": ("N m",),
-    },
-    "elpas": {
-        "voltage": ("V",),
-        "alpha": ("rad",),  # imposed wishbone angle (hydropulse rig)
-        "force_reference": ("N",),  # closed-loop force reference
-    },
-}
-
-#: output quantities per device and their allowed units
-OUTPUTS: dict[str, dict[str, tuple[str, ...]]] = {
-    "drive": {
-        "position": ("m", "rad"),
-        "velocity": ("m/s", "rad/s"),
-        "speed_abs": ("m/s", "rad/s", "au"),  # rectified speed (a sensor blind to the sign)
-        "force": ("N", "N m"),  # transmitted force / torque
-        "controller_output": ("V", "A", "N", "N m"),
-    },
-    "vsaut2": {
-        "r": ("rad",),  # output link angle
-        "q2": ("rad",),  # frame angle
-        "phi": ("rad",),  # deflection r - q2
-        "tau_out": ("N m",),  # elastic torque on the output
-        "i2": ("A",),  # frame motor current
-    },
-    "elpas": {
-        "force": ("N",),  # actuator force F_act
-        "gamma": ("rad",),  # arm angle
-        "current": ("A",),
-        "voltage": ("V",),  # controller output of a closed loop
-    },
-}
+#: the devices a record may declare, and their input / output quantities with the allowed units
+#: (:mod:`vsa_gym.devices`: each device declares its record schema once)
+DEVICES: tuple[str, ...] = tuple(d.name for d in devices())
+INPUTS: dict[str, dict[str, tuple[str, ...]]] = {d.name: dict(d.record.inputs) for d in devices()}
+OUTPUTS: dict[str, dict[str, tuple[str, ...]]] = {d.name: dict(d.record.outputs) for d in devices()}
 
 SHIPPED_DIR = Path(__file__).resolve().parent.parent / "data"
 #: shipped record names -> (fit record, test record or None)
@@ -280,13 +240,10 @@ def check_record(path: str | Path, table: pd.DataFrame | None = None,
                 problems.append(f"column {col!r}: {int(bad.sum())} NaN / non-numeric value(s), first at row "
                                 f"{int(np.argmax(bad))}")
     ins = {s.get("quantity") for s in (meta.get("inputs") or {}).values() if isinstance(s, Mapping)}
-    if device == "drive" and ins and not ins & {"voltage", "current", "force", "reference"}:
-        problems.append("drive record needs a drive input: voltage, current, force or a closed-loop reference")
-    if device == "vsaut2" and ins and not ins & {"voltage_pivot", "voltage_frame", "current_frame",
-                                                 "external_torque"}:
-        problems.append("vsaut2 record needs a motor voltage / current or an external torque input")
-    if device == "elpas" and ins and "alpha" not in ins:
-        problems.append("elpas rig record needs the imposed wishbone angle 'alpha' as an input")
+    if device in DEVICES:
+        problem = device_spec(device).record.input_problem({str(q) for q in ins})
+        if problem:
+            problems.append(problem)
 
     ctrl = meta.get("controller")
     if ctrl is not None:

@@ -7,23 +7,27 @@ parameter landed from the truth.  :func:`summarise` turns the outcomes of one ca
 into the row of a recovery table.  Used by ``benchmarks/identify_recovery_devices.py`` and the
 device tests (``tests/identify/test_{vsaut2,elpas}_effects.py``).
 
-* vsaUT-II (:mod:`vsa_gym.identify.synthetic_vsaut2`): the catalogue is ``RANGES[experiment]``,
+Each device declares its bench (:class:`SyntheticBench`) in :mod:`vsa_gym.devices`:
+
+* vsaUT-II (:data:`vsa_gym.identify.synthetic_vsaut2.BENCH`): the catalogue is ``RANGES[experiment]``,
   fitted with ``Identifier()`` on the record's own fit/validation parts, scored on its test part.
-* eLPAS (:mod:`vsa_gym.identify.synthetic_elpas`): the catalogue is ``ELPAS_RANGES``; the fit
-  record is a sine or step force test of :data:`ELPAS_DURATION` s, the held-out record the
+* eLPAS (:data:`vsa_gym.identify.synthetic_elpas.BENCH`): the catalogue is ``ELPAS_RANGES``; the fit
+  record is a sine or step force test of ``ELPAS_DURATION`` s, the held-out record the
   other kind of test of the same device (same planted parameters, another seed),
   ``Identifier(n_fit=2, max_nfev=15)``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
-from vsa_gym.identify.pipeline import IdentificationResult, Identifier
+from vsa_gym.devices import device, devices
+from vsa_gym.identify.pipeline import IdentificationResult
 
 #: the main (reported, tested) parameter of each catalogue effect
 MAIN: dict[str, str] = {
@@ -32,57 +36,49 @@ MAIN: dict[str, str] = {
     "inertia_error": "rel", "force_offset": "F_0", "sensor_gain": "gain", "sensor_offset": "offset",
     "sensor_delay": "delay", "spring_stiffness_drift": "drift", "alpha_offset": "offset",
 }
-#: eLPAS names some parameters after its own fields
-ELPAS_MAIN: dict[str, str] = {**MAIN, "viscous_friction": "s2"}
-
-ELPAS_DURATION = 1.5  # s, each eLPAS force test (fit and held-out)
-ELPAS_IDENTIFIER: dict[str, int] = {"n_fit": 2, "max_nfev": 15}
-DEVICES = ("vsaut2", "elpas")
 
 
-def main_key(device: str, effect: str) -> str:
-    """The main parameter of ``effect`` on ``device``."""
-    return (ELPAS_MAIN if device == "elpas" else MAIN)[effect]
+@dataclasses.dataclass(frozen=True)
+class SyntheticBench:
+    """A device's synthetic-recovery bench (declared by the device, :mod:`vsa_gym.devices`).
+
+    ``catalogue()``: the ``(experiment, effect)`` pairs its generator can plant; ``negative_experiments()``: the
+    experiments that get negative controls; ``identify_case(experiment, effect, seed)``: identify one seeded
+    record with ``effect`` planted (``None``: none), returning the result and the truth; ``main``: the main
+    parameter of each effect.
+    """
+
+    catalogue: Callable[[], list[tuple[str, str]]]
+    negative_experiments: Callable[[], list[str]]
+    identify_case: Callable[[str, str | None, int], tuple[IdentificationResult, dict[str, Any]]]
+    main: Mapping[str, str] = dataclasses.field(default_factory=lambda: dict(MAIN))
 
 
-def catalogue(device: str) -> list[tuple[str, str]]:
-    """``(experiment, effect)`` pairs the device's generator can plant (its ``RANGES``)."""
-    if device == "vsaut2":
-        from vsa_gym.identify.synthetic_vsaut2 import RANGES
-
-        return [(exp, eff) for exp, effs in RANGES.items() for eff in effs]
-    if device == "elpas":
-        from vsa_gym.identify.synthetic_elpas import ELPAS_RANGES
-
-        return [("sine", eff) for eff in ELPAS_RANGES]
-    raise ValueError(f"device must be one of {DEVICES}, got {device!r}")
+def _bench(device_name: str) -> SyntheticBench:
+    if device_name not in DEVICES:
+        raise ValueError(f"device must be one of {DEVICES}, got {device_name!r}")
+    return device(device_name).recovery_bench()
 
 
-def negative_experiments(device: str) -> list[str]:
+def main_key(device_name: str, effect: str) -> str:
+    """The main parameter of ``effect`` on the device."""
+    return _bench(device_name).main[effect]
+
+
+def catalogue(device_name: str) -> list[tuple[str, str]]:
+    """``(experiment, effect)`` pairs the device's generator can plant."""
+    return _bench(device_name).catalogue()
+
+
+def negative_experiments(device_name: str) -> list[str]:
     """The experiments that get negative controls."""
-    if device == "vsaut2":
-        from vsa_gym.identify.synthetic_vsaut2 import EXPERIMENTS
-
-        return list(EXPERIMENTS)
-    return ["sine"]
+    return _bench(device_name).negative_experiments()
 
 
-def identify_case(device: str, experiment: str, effect: str | None,
+def identify_case(device_name: str, experiment: str, effect: str | None,
                   seed: int) -> tuple[IdentificationResult, dict[str, Any]]:
     """Identify one seeded synthetic record with ``effect`` planted; returns the result and the truth."""
-    if device == "vsaut2":
-        from vsa_gym.identify.synthetic_vsaut2 import make_vsaut2_record
-
-        rec, truth = make_vsaut2_record(seed, experiment, effect)
-        return Identifier().fit(rec).result_, truth
-    if device == "elpas":
-        from vsa_gym.identify.synthetic_elpas import make_elpas_record
-
-        held_out = {"sine": "step", "step": "sine"}[experiment]
-        rec, truth = make_elpas_record(seed, effect, experiment, duration=ELPAS_DURATION)
-        test, _ = make_elpas_record(seed + 1000, effect, held_out, duration=ELPAS_DURATION, truth=truth["params"])
-        return Identifier(**ELPAS_IDENTIFIER).fit(rec, test).result_, truth
-    raise ValueError(f"device must be one of {DEVICES}, got {device!r}")
+    return _bench(device_name).identify_case(experiment, effect, seed)
 
 
 def run_case(device: str, experiment: str, effect: str | None, seed: int) -> dict[str, Any]:
@@ -135,5 +131,8 @@ def summarise(outcomes: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return row
 
 
-__all__ = ["DEVICES", "ELPAS_DURATION", "ELPAS_IDENTIFIER", "MAIN", "catalogue", "identify_case", "main_key",
-           "negative_experiments", "run_case", "summarise"]
+#: the devices with a synthetic-recovery bench
+DEVICES: tuple[str, ...] = tuple(d.name for d in devices() if d.recovery)
+
+__all__ = ["DEVICES", "MAIN", "SyntheticBench", "catalogue", "identify_case", "main_key", "negative_experiments",
+           "run_case", "summarise"]

@@ -21,6 +21,7 @@ import pandas as pd
 from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.elpas_adapter import ElpasAdapter
 from vsa_gym.identify.record import FORMAT, Record, load_record
+from vsa_gym.identify.recovery import MAIN, SyntheticBench
 
 #: realistic magnitude ranges per effect (sign drawn at random for the SIGNED ones)
 ELPAS_RANGES: dict[str, dict[str, tuple[float, float]]] = {
@@ -113,4 +114,24 @@ def make_elpas_record(seed: int, effect: str | None = "random", kind: str = "sin
     return rec, {"effect": effect, "params": truth}
 
 
-__all__ = ["ELPAS_RANGES", "elpas_meta", "make_elpas_record"]
+ELPAS_DURATION = 1.5  # s, each force test of the recovery bench (fit and held-out)
+ELPAS_IDENTIFIER: dict[str, int] = {"n_fit": 2, "max_nfev": 15}  # the bench's identifier settings
+
+
+def _identify_case(experiment: str, effect: str | None, seed: int) -> tuple[Any, dict[str, Any]]:
+    """The recovery bench's case: fit on a sine or step force test, score on the other kind of test of the same
+    device (same planted parameters, another seed)."""
+    from vsa_gym.identify.pipeline import Identifier
+
+    held_out = {"sine": "step", "step": "sine"}[experiment]
+    rec, truth = make_elpas_record(seed, effect, experiment, duration=ELPAS_DURATION)
+    test, _ = make_elpas_record(seed + 1000, effect, held_out, duration=ELPAS_DURATION, truth=truth["params"])
+    return Identifier(**ELPAS_IDENTIFIER).fit(rec, test).result_, truth
+
+
+#: the eLPAS's synthetic-recovery bench (:mod:`vsa_gym.identify.recovery`); it names viscous friction by ``s2``
+BENCH = SyntheticBench(catalogue=lambda: [("sine", eff) for eff in ELPAS_RANGES],
+                       negative_experiments=lambda: ["sine"], identify_case=_identify_case,
+                       main={**MAIN, "viscous_friction": "s2"})
+
+__all__ = ["BENCH", "ELPAS_DURATION", "ELPAS_IDENTIFIER", "ELPAS_RANGES", "elpas_meta", "make_elpas_record"]

@@ -30,6 +30,7 @@ import pandas as pd
 
 from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.record import FORMAT, Record, load_record, write_record
+from vsa_gym.identify.recovery import SyntheticBench
 from vsa_gym.identify.vsaut2_adapter import Vsaut2Adapter
 from vsa_gym.physics.lever import pivot_for_stiffness
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
@@ -151,4 +152,17 @@ def make_vsaut2_record(seed: int, experiment: str = "free_oscillation", effect: 
     return rec, {"effect": effect, "params": truth}
 
 
-__all__ = ["EXPERIMENTS", "RANGES", "SWEEP_K", "SWEEP_TORQUE", "draw_effect", "experiment_meta", "make_vsaut2_record"]
+def _identify_case(experiment: str, effect: str | None, seed: int) -> tuple[Any, dict[str, Any]]:
+    """The recovery bench's case: ``Identifier()`` on the record's own fit/validation parts."""
+    from vsa_gym.identify.pipeline import Identifier
+
+    rec, truth = make_vsaut2_record(seed, experiment, effect)
+    return Identifier().fit(rec).result_, truth
+
+
+#: the vsaUT-II's synthetic-recovery bench (:mod:`vsa_gym.identify.recovery`): every ``RANGES`` entry
+BENCH = SyntheticBench(catalogue=lambda: [(exp, eff) for exp, effs in RANGES.items() for eff in effs],
+                       negative_experiments=lambda: list(EXPERIMENTS), identify_case=_identify_case)
+
+__all__ = ["BENCH", "EXPERIMENTS", "RANGES", "SWEEP_K", "SWEEP_TORQUE", "draw_effect", "experiment_meta",
+           "make_vsaut2_record"]
