@@ -6,7 +6,7 @@ import pytest
 
 from vsa_gym.physics.contact import FAR, penalty_contact
 from vsa_gym.physics.gearbox import input_torque
-from vsa_gym.vsaut2.model import N_POWER, N_STATES, PARALLEL_MIN_ROWS, PORTS, VsaUT2Model, _rhs_core, rhs_rows
+from vsa_gym.vsaut2.model import N_POWER, N_STATES, PARALLEL_MIN_ROWS, PORTS, VsaUT2Model, rhs_core, rhs_rows
 from vsa_gym.vsaut2.params import VsaUT2Effects, VsaUT2Params
 
 
@@ -122,7 +122,7 @@ def test_compiled_rhs_equals_numpy_rhs_bit_for_bit(effects):
     u, tau = rng.uniform(-40, 40, (n, 2)), rng.normal(0, 2, n)
     dx_c, pw_c = rhs_rows(x, u, tau, model.p_rows, model.d_rows)
     dx_n, pw_n = np.empty((n, N_STATES)), np.empty((n, N_POWER))
-    _rhs_core(x, u, tau, model.params, model._d, np.zeros((n, len(PORTS))), dx_n, pw_n)
+    rhs_core(x, u, tau, model.params, model._d, np.zeros((n, len(PORTS))), dx_n, pw_n)
     for c, nm in ((dx_c, dx_n), (pw_c, pw_n)):
         scale = np.abs(nm).max(axis=0) + 1e-300
         assert (np.abs(c - nm) / scale).max() <= 1e-12

@@ -1,7 +1,7 @@
 """Identification adapter of the vsaUT-II: replay a record through the envs' compiled core.
 
 The replay is the nominal :class:`~vsa_gym.vsaut2.model.VsaUT2Model` (the same
-``_rhs_point`` the environments integrate), batched over candidate parameter rows:
+``rhs_point`` the environments integrate), batched over candidate parameter rows:
 the parameters are flattened once (:func:`~vsa_gym.physics.kernels.flatten_rows`),
 each candidate edits its own row, and one numba rollout steps all rows through
 the compiled RK4 (:func:`vsa_gym.vsaut2.model.rk4_rows`).  The effects are
