@@ -61,11 +61,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("after", type=Path)
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--ids", nargs="*", default=list(IDS), help="ids to time (default: all)")
+    ap.add_argument("--sizes", nargs="*", type=int, default=[1, 64], help="1: single env; n > 1: vector env")
     args = ap.parse_args(argv)
     rows = []
     print(f"{'id':40s} {'n':>4s} {'before':>10s} {'after':>10s} {'after/before':>12s}")
-    for env_id in IDS:
-        for n, steps in ((1, 2000), (64, 200)):
+    for env_id in args.ids:
+        for n in args.sizes:
+            steps = 2000 if n == 1 else max(20, 12800 // n)
             best = {"before": 0.0, "after": 0.0}
             for _ in range(args.rounds):
                 for which in ("before", "after"):

@@ -16,13 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
+from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
+from vsa_gym.identify.library import main_parameters
 from vsa_gym.identify.pipeline import Identifier
 from vsa_gym.identify.synthetic import DRIVE_EFFECTS, make_drive_record
 
-MAIN = {"coulomb_friction": "F_c", "stribeck_friction": "F_s", "viscous_friction": "b", "backlash": "width",
-        "transmission_compliance": "compliance", "gearbox_efficiency": "loss", "hysteresis": "F_h",
-        "inertia_error": "rel", "force_offset": "F_0", "sensor_gain": "gain", "sensor_offset": "offset",
-        "sensor_delay": "delay"}
+MAIN = main_parameters(DRIVE_LIBRARY)  # the drive library's main parameter of each effect
 
 
 def main() -> None:

@@ -21,10 +21,21 @@ def test_every_declared_reference_resolves(name: str) -> None:
     assert d.record.inputs and d.record.outputs
     if d.adapter:
         assert issubclass(d.adapter_class(), Adapter)
+    if d.effects:
+        library = d.effect_library()
+        names = [e.name for e in library]
+        assert len(set(names)) == len(names), "an effect declared twice"
+        for e in library:
+            assert e.measurement or (e.params and e.enters and e.where), f"{name}.{e.name}: undocumented entry"
+            for exp, ranges in e.synthetic.items():
+                assert e.main in ranges, f"{name}.{e.name}: synthetic {exp} plants no main parameter"
+                assert all(0 <= lo < hi for lo, hi in ranges.values()), f"{name}.{e.name}: bad range in {exp}"
     if d.recovery:
         bench = d.recovery_bench()
         assert bench.catalogue() and bench.negative_experiments()
         assert all(effect in bench.main for _, effect in bench.catalogue())
+        library = {e.name: e for e in d.effect_library()}
+        assert all(library[effect].synthetic for _, effect in bench.catalogue())  # planted ranges: the library's
     if d.reproduce:
         assert callable(load_ref(d.reproduce).run)
     if d.datasheet:
@@ -56,3 +67,19 @@ def test_the_declared_input_rule_reaches_the_record_checker(tmp_path) -> None:
             "outputs": {"x": {"quantity": "force", "unit": "N", "sensor": "load cell"}}}
     problems = check_record(tmp_path / "r.csv", table=table, meta=meta)
     assert device("elpas").record.needs_message in problems
+
+
+def test_adapters_name_only_library_effects(tmp_path) -> None:
+    """Every effect an adapter offers on a record is its device library's entry (or a measurement effect)."""
+    from vsa_gym.identify.synthetic import make_drive_record
+    from vsa_gym.identify.synthetic_elpas import make_elpas_record
+    from vsa_gym.identify.synthetic_vsaut2 import make_vsaut2_record
+
+    for dev, (rec, _) in (("drive", make_drive_record(1, None)), ("vsaut2", make_vsaut2_record(1, effect=None)),
+                          ("elpas", make_elpas_record(1, None, duration=0.3))):
+        ad = device(dev).adapter_class()(rec)
+        library = {e.name: e for e in device(dev).effect_library()}
+        for name, spec in ad.effects.items():
+            assert name in library, f"{dev}: {name} is not in the library"
+            if not library[name].measurement:
+                assert [p.name for p in spec.params] == [p.name for p in library[name].params]

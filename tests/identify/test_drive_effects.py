@@ -11,16 +11,15 @@ import numpy as np
 import pytest
 
 from tests.identify.recovery import assert_planted_effect_recovered
+from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
 from vsa_gym.identify.drive import DriveParams, simulate
+from vsa_gym.identify.library import main_parameters
 from vsa_gym.identify.pipeline import Identifier
 from vsa_gym.identify.synthetic import make_drive_record
 from vsa_gym.physics.friction import CoulombViscousParams, coulomb_viscous_moment
 
 REL_TOL = 0.10
-MAIN = {"coulomb_friction": "F_c", "stribeck_friction": "F_s", "viscous_friction": "b", "backlash": "width",
-        "transmission_compliance": "compliance", "gearbox_efficiency": "loss", "hysteresis": "F_h",
-        "inertia_error": "rel", "force_offset": "F_0", "sensor_gain": "gain", "sensor_offset": "offset",
-        "sensor_delay": "delay"}
+MAIN = main_parameters(DRIVE_LIBRARY)  # the drive library's main parameter of each effect
 
 
 def _check(effect: str, seed: int) -> None:

@@ -50,7 +50,8 @@ class EnvEntry:
 class DeviceSpec:
     """One device.  References are ``"module:attribute"`` strings, imported on use (:func:`load_ref`).
 
-    ``adapter``: the identification adapter class (``Adapter`` subclass taking a record);
+    ``adapter``: the identification adapter class (``Adapter`` subclass taking a record); ``effects``: its
+    effect library (a sequence of :class:`vsa_gym.identify.library.Effect`);
     ``recovery``: the synthetic-recovery bench (an object with ``catalogue()``, ``negative_experiments()``,
     ``main_key(effect)`` and ``identify_case(experiment, effect, seed)``; :mod:`vsa_gym.identify.recovery`);
     ``reproduce``: a module with ``run(out_dir) -> summary``; ``datasheet``: a module with ``compute()`` and
@@ -61,6 +62,7 @@ class DeviceSpec:
     description: str
     record: RecordSchema
     adapter: str | None = None
+    effects: str | None = None
     recovery: str | None = None
     envs: tuple[EnvEntry, ...] = ()
     reproduce: str | None = None
@@ -70,6 +72,11 @@ class DeviceSpec:
         if self.adapter is None:
             raise NotImplementedError(f"identification of {self.name!r} records has no replay adapter")
         return load_ref(self.adapter)
+
+    def effect_library(self) -> Any:
+        if self.effects is None:
+            raise NotImplementedError(f"device {self.name!r} declares no effect library")
+        return load_ref(self.effects)
 
     def recovery_bench(self) -> Any:
         if self.recovery is None:

@@ -13,8 +13,10 @@ from typing import Any
 
 import numpy as np
 
+from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
 from vsa_gym.identify import drive
 from vsa_gym.identify.effects import EffectSpec, MeasurementModel, ParamSpec, sensor_specs
+from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record, Signal
 
 Theta = Mapping[str, np.ndarray]
@@ -222,58 +224,23 @@ class DriveAdapter(Adapter):
         self.x_ref = float(np.std(xs[:, 0])) or 1.0
 
     def _effects(self) -> dict[str, EffectSpec]:
-        F, v, m = self.F_ref, self.v_ref, float(self.params.m)
-        lin, rot = ("rad", "N m") if self.rot else ("m", "N")
-        # a model in arbitrary units (CED: speed in au, unit inertia) names its own units
-        units = self.record.model.get("units", {})
-        lin, rot = str(units.get("position", lin)), str(units.get("force", rot))
-        free = {b.name for b in self.base}
-        where = "at the load"
-        eff: dict[str, EffectSpec] = {}
-        if "F_c" not in free:
-            eff["coulomb_friction"] = EffectSpec("coulomb_friction", where,
-                                                 (ParamSpec("F_c", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),))
-        eff["stribeck_friction"] = EffectSpec("stribeck_friction", where, (
-            ParamSpec("F_s", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),
-            ParamSpec("v_s", f"{lin}/s", 0.005 * v, 0.5 * v, 0.05 * v, 0.05 * v, main=False)))
-        if "b" not in free:
-            eff["viscous_friction"] = EffectSpec("viscous_friction", where,
-                                                 (ParamSpec("b", f"{rot} s/{lin}", 0.0, 2 * F / v, 0.0, 0.05 * F / v),))
-        if "backlash" not in free:
-            eff["backlash"] = EffectSpec("backlash", "in the transmission",
-                                         (ParamSpec("width", lin, 0.0, 0.2 * self.x_ref, 0.0, 0.005 * self.x_ref),))
-        if float(self.params.k_c) == 0.0:
-            # compliance 1/k: absent = 0; typical: a mode at 20 Hz on the reduced mass
-            k_typ = 4 * np.pi**2 * 400.0 * m / 4
-            eff["transmission_compliance"] = EffectSpec("transmission_compliance", "in the transmission", (
-                ParamSpec("compliance", f"{lin}/{rot}", 0.0, 1.0 / (k_typ / 25), 0.0, 1.0 / k_typ),))
-        elif "k_c" not in free:
-            eff["spring_stiffness_drift"] = EffectSpec("spring_stiffness_drift", "in the transmission spring",
-                                                       (ParamSpec("drift", "-", -0.5, 0.5, 0.0, 0.05),))
-        # forward loss 1 - eta; back-driven loss 1 - eta_b (same start: a symmetric mesh)
-        eff["gearbox_efficiency"] = EffectSpec("gearbox_efficiency", "in the transmission", (
-            ParamSpec("loss", "-", 0.0, 0.7, 0.0, 0.05),
-            ParamSpec("loss_back", "-", 0.0, 0.8, 0.0, 0.05, main=False, check_bound=False)))
-        # Dahl force F_h and its presliding travel x_h = F_h / sigma_h; a travel of a few sensor counts or
-        # less is not a resolved presliding regime but a friction that sticks (Coulomb friction)
-        res = max((s.resolution for s in self.outputs if s.quantity == "position"), default=0.0)
-        x_min = max(2e-4 * self.x_ref, 4.0 * res)
-        eff["hysteresis"] = EffectSpec("hysteresis", where, (
-            ParamSpec("F_h", rot, 0.0, 0.5 * F, 0.0, 0.03 * F),
-            ParamSpec("x_h", lin, x_min, 0.3 * self.x_ref, max(0.01 * self.x_ref, 2 * x_min),
-                      max(0.01 * self.x_ref, 2 * x_min), main=False)))
-        if "m" not in free:
-            eff["inertia_error"] = EffectSpec("inertia_error", "of the moving parts",
-                                              (ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.05, tolerance=0.05),))
-        if "F_0" not in free:
-            # up to the drive's peak force, replayed or recorded (a closed loop's recorded command holds the
-            # weight of a vertical axis, which the nominal replay does not): the weight can take most of it
-            F_max = max(F, float(np.max(np.abs(self.params.k_u * self.u))))
-            # below 1 % of the peak drive force it is within an amplifier's zero offset (a per cent of full scale)
-            eff["force_offset"] = EffectSpec("force_offset", where, (ParamSpec("F_0", rot, -F_max, F_max, 0.0,
-                                                                               0.02 * F, tolerance=0.01 * F),))
+        """The drive library's effects that apply to this record (:mod:`vsa_gym.devices.drive.effects`), then the
+        output sensors' measurement effects."""
+        eff = physics_specs(DRIVE_LIBRARY, self)
         eff.update(self._sensor_effects())
         return eff
+
+    @property
+    def free(self) -> set[str]:
+        """The nominal parameters fitted as base parameters (``model.free``)."""
+        return {b.name for b in self.base}
+
+    @property
+    def units(self) -> tuple[str, str]:
+        """``(position, force)`` units: m and N, rad and N m, or the record model's own (CED: arbitrary units)."""
+        lin, rot = ("rad", "N m") if self.rot else ("m", "N")
+        units = self.record.model.get("units", {})
+        return str(units.get("position", lin)), str(units.get("force", rot))
 
     def param_matrix(self, theta: Theta, n: int) -> np.ndarray:
         P = self.params.vector(n)

@@ -50,12 +50,14 @@ from typing import Any
 import numba
 import numpy as np
 
+from vsa_gym.devices.elpas.effects import LIBRARY as ELPAS_LIBRARY
 from vsa_gym.elpas import model as em
 from vsa_gym.elpas.cone import spring_unchecked
 from vsa_gym.elpas.params import ElpasParams
 from vsa_gym.envs.elpas_common import CURRENT_LOOP_DT, SUBSTEP_MAX, ElpasCurrentLoop
 from vsa_gym.identify.adapters import Adapter, Theta, _get
-from vsa_gym.identify.effects import EffectSpec, ParamSpec
+from vsa_gym.identify.effects import EffectSpec
+from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record
 from vsa_gym.physics.friction import bristle_rate
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
@@ -173,25 +175,9 @@ class ElpasAdapter(Adapter):
         return other
 
     def _effects(self) -> dict[str, EffectSpec]:
-        fr = self.nominal.friction
-        F_c, F_s, s2 = float(fr.F_c), float(fr.F_s), float(fr.s2)
-        mot = "at the motor shaft (LuGre)"
-        eff = {
-            "coulomb_friction": EffectSpec("coulomb_friction", mot, (
-                ParamSpec("F_c", "N m", -0.75 * F_c, 5.0 * F_c, 0.0, 0.25 * F_c),)),
-            "stribeck_friction": EffectSpec("stribeck_friction", mot, (
-                ParamSpec("F_s", "N m", -0.5 * (F_s - F_c), 3.0 * F_s, 0.0, 0.2 * F_s),)),
-            "viscous_friction": EffectSpec("viscous_friction", mot, (
-                ParamSpec("s2", "N m s/rad", -0.75 * s2, 10.0 * s2, 0.0, 0.5 * s2),)),
-            "spring_stiffness_drift": EffectSpec("spring_stiffness_drift", "of the cone spring rate C_a", (
-                ParamSpec("drift", "-", -0.3, 0.3, 0.0, 0.03),)),
-            "inertia_error": EffectSpec("inertia_error", "about the gamma axis (J_r)", (
-                ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.1),)),
-            "gearbox_efficiency": EffectSpec("gearbox_efficiency", "of motor and reductor", (
-                ParamSpec("loss", "-", 0.0, 0.5, 0.0, 0.05),)),
-            "alpha_offset": EffectSpec("alpha_offset", "of the wishbone angle (alignment)", (
-                ParamSpec("offset", "rad", -0.05, 0.05, 0.0, 0.005),)),
-        }
+        """The eLPAS library's effects (:mod:`vsa_gym.devices.elpas.effects`), then the force sensor's measurement
+        effects when the force is the first output."""
+        eff = physics_specs(ELPAS_LIBRARY, self)
         if "force" in self.record.outputs and self.outputs[0].quantity == "force":
             eff.update(self._sensor_effects())
         return eff

@@ -29,14 +29,6 @@ import numpy as np
 from vsa_gym.devices import device, devices
 from vsa_gym.identify.pipeline import IdentificationResult
 
-#: the main (reported, tested) parameter of each catalogue effect
-MAIN: dict[str, str] = {
-    "coulomb_friction": "F_c", "stribeck_friction": "F_s", "viscous_friction": "b", "backlash": "width",
-    "transmission_compliance": "compliance", "gearbox_efficiency": "loss", "hysteresis": "F_h",
-    "inertia_error": "rel", "force_offset": "F_0", "sensor_gain": "gain", "sensor_offset": "offset",
-    "sensor_delay": "delay", "spring_stiffness_drift": "drift", "alpha_offset": "offset",
-}
-
 
 @dataclasses.dataclass(frozen=True)
 class SyntheticBench:
@@ -45,13 +37,13 @@ class SyntheticBench:
     ``catalogue()``: the ``(experiment, effect)`` pairs its generator can plant; ``negative_experiments()``: the
     experiments that get negative controls; ``identify_case(experiment, effect, seed)``: identify one seeded
     record with ``effect`` planted (``None``: none), returning the result and the truth; ``main``: the main
-    parameter of each effect.
+    parameter of each effect (the device's effect library, :func:`vsa_gym.identify.library.main_parameters`).
     """
 
     catalogue: Callable[[], list[tuple[str, str]]]
     negative_experiments: Callable[[], list[str]]
     identify_case: Callable[[str, str | None, int], tuple[IdentificationResult, dict[str, Any]]]
-    main: Mapping[str, str] = dataclasses.field(default_factory=lambda: dict(MAIN))
+    main: Mapping[str, str]
 
 
 def _bench(device_name: str) -> SyntheticBench:
@@ -134,5 +126,5 @@ def summarise(outcomes: Sequence[dict[str, Any]]) -> dict[str, Any]:
 #: the devices with a synthetic-recovery bench
 DEVICES: tuple[str, ...] = tuple(d.name for d in devices() if d.recovery)
 
-__all__ = ["DEVICES", "MAIN", "SyntheticBench", "catalogue", "identify_case", "main_key", "negative_experiments",
+__all__ = ["DEVICES", "SyntheticBench", "catalogue", "identify_case", "main_key", "negative_experiments",
            "run_case", "summarise"]

@@ -13,26 +13,17 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
+from vsa_gym.devices.drive.effects import SYNTHETIC
 from vsa_gym.identify.adapters import DriveAdapter
 from vsa_gym.identify.effects import draw_planted_effect
+from vsa_gym.identify.library import signed_effects, synthetic_ranges
 from vsa_gym.identify.record import FORMAT, Record, load_record
 
-#: realistic magnitude ranges per effect of the drive (sign drawn at random where marked +-)
-DRIVE_RANGES: dict[str, dict[str, tuple[float, float]]] = {
-    "coulomb_friction": {"F_c": (0.6, 2.0)},
-    "stribeck_friction": {"F_s": (1.0, 2.5), "v_s": (0.02, 0.05)},
-    "viscous_friction": {"b": (4.0, 10.0)},
-    "backlash": {"width": (2e-3, 5e-3)},
-    "transmission_compliance": {"compliance": (1 / (4 * np.pi**2 * 8.0**2 * 0.5), 1 / (4 * np.pi**2 * 4.0**2 * 0.5))},
-    "gearbox_efficiency": {"loss": (0.1, 0.3)},
-    "hysteresis": {"F_h": (0.8, 2.0)},
-    "inertia_error": {"rel": (0.15, 0.4)},  # +-
-    "force_offset": {"F_0": (0.4, 1.5)},  # +-
-    "sensor_gain": {"gain": (0.03, 0.08)},  # +-
-    "sensor_offset": {"offset": (2e-3, 5e-3)},  # +-
-    "sensor_delay": {"delay": (0.004, 0.012)},
-}
-SIGNED = {"inertia_error", "force_offset", "sensor_gain", "sensor_offset"}
+#: realistic magnitude ranges per effect of the drive, and the effects whose sign is drawn too (declared in the
+#: drive's effect library, :mod:`vsa_gym.devices.drive.effects`)
+DRIVE_RANGES: dict[str, dict[str, tuple[float, float]]] = synthetic_ranges(DRIVE_LIBRARY, SYNTHETIC)
+SIGNED = signed_effects(DRIVE_LIBRARY)
 DRIVE_EFFECTS: tuple[str, ...] = tuple(DRIVE_RANGES)
 
 ENCODER_STEP = 1e-5  # m

@@ -18,25 +18,18 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vsa_gym.devices.elpas.effects import LIBRARY as ELPAS_LIBRARY
+from vsa_gym.devices.elpas.effects import RIG
 from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.elpas_adapter import ElpasAdapter
+from vsa_gym.identify.library import main_parameters, signed_effects, synthetic_ranges
 from vsa_gym.identify.record import FORMAT, Record, load_record
-from vsa_gym.identify.recovery import MAIN, SyntheticBench
+from vsa_gym.identify.recovery import SyntheticBench
 
-#: realistic magnitude ranges per effect (sign drawn at random for the SIGNED ones)
-ELPAS_RANGES: dict[str, dict[str, tuple[float, float]]] = {
-    "coulomb_friction": {"F_c": (0.15, 0.35)},  # N m at the motor: +75 ... +175 % of Table 1 ("underestimated")
-    "stribeck_friction": {"F_s": (0.3, 0.6)},
-    "viscous_friction": {"s2": (0.006, 0.015)},
-    "spring_stiffness_drift": {"drift": (0.05, 0.12)},  # +-
-    "inertia_error": {"rel": (0.3, 0.6)},  # +-
-    "gearbox_efficiency": {"loss": (0.1, 0.25)},
-    "alpha_offset": {"offset": (0.01, 0.02)},  # +- rad
-    "sensor_gain": {"gain": (0.03, 0.06)},  # +-
-    "sensor_offset": {"offset": (30.0, 60.0)},  # +- N
-    "sensor_delay": {"delay": (0.004, 0.010)},
-}
-SIGNED = {"spring_stiffness_drift", "inertia_error", "alpha_offset", "sensor_gain", "sensor_offset"}
+#: realistic magnitude ranges per effect, and the effects whose sign is drawn too (declared in the eLPAS's effect
+#: library, :mod:`vsa_gym.devices.elpas.effects`)
+ELPAS_RANGES: dict[str, dict[str, tuple[float, float]]] = synthetic_ranges(ELPAS_LIBRARY, RIG)
+SIGNED = signed_effects(ELPAS_LIBRARY)
 FORCE_NOISE = 5.0  # N
 GAMMA_STEP = 2 * np.pi / 2000 / 59.0  # rad, motor encoder seen at the arm
 
@@ -129,9 +122,9 @@ def _identify_case(experiment: str, effect: str | None, seed: int) -> tuple[Any,
     return Identifier(**ELPAS_IDENTIFIER).fit(rec, test).result_, truth
 
 
-#: the eLPAS's synthetic-recovery bench (:mod:`vsa_gym.identify.recovery`); it names viscous friction by ``s2``
+#: the eLPAS's synthetic-recovery bench (:mod:`vsa_gym.identify.recovery`)
 BENCH = SyntheticBench(catalogue=lambda: [("sine", eff) for eff in ELPAS_RANGES],
                        negative_experiments=lambda: ["sine"], identify_case=_identify_case,
-                       main={**MAIN, "viscous_friction": "s2"})
+                       main=main_parameters(ELPAS_LIBRARY))
 
 __all__ = ["BENCH", "ELPAS_DURATION", "ELPAS_IDENTIFIER", "ELPAS_RANGES", "elpas_meta", "make_elpas_record"]

@@ -28,7 +28,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vsa_gym.devices.vsaut2.effects import LIBRARY as VSAUT2_LIBRARY
 from vsa_gym.identify.effects import draw_planted_effect
+from vsa_gym.identify.library import main_parameters, signed_effects, synthetic_ranges
 from vsa_gym.identify.record import FORMAT, Record, load_record, write_record
 from vsa_gym.identify.recovery import SyntheticBench
 from vsa_gym.identify.vsaut2_adapter import Vsaut2Adapter
@@ -38,28 +40,11 @@ from vsa_gym.vsaut2.params import VsaUT2Params
 
 EXPERIMENTS: tuple[str, ...] = ("free_oscillation", "constant_current", "torque_sweep")
 
-#: realistic magnitude ranges per experiment and effect (sign drawn at random for SIGNED)
+#: realistic magnitude ranges per experiment and effect, and the effects whose sign is drawn too (declared in the
+#: vsaUT-II's effect library, :mod:`vsa_gym.devices.vsaut2.effects`)
 RANGES: dict[str, dict[str, dict[str, tuple[float, float]]]] = {
-    "free_oscillation": {
-        # the paper's Fig. 10 discrepancy: the measured oscillation decays faster than linear friction
-        "coulomb_friction": {"F_c": (3e-3, 1e-2)},
-        "viscous_friction": {"b": (4e-3, 1.2e-2)},
-        "inertia_error": {"rel": (0.1, 0.3)},
-        "spring_stiffness_drift": {"drift": (0.06, 0.15)},
-        "sensor_offset": {"offset": (0.01, 0.03)},
-    },
-    "constant_current": {
-        "coulomb_friction": {"F_c": (0.1, 0.3)},
-        "gearbox_efficiency": {"loss": (0.1, 0.25)},
-        "inertia_error": {"rel": (0.2, 0.5)},
-    },
-    "torque_sweep": {
-        "spring_stiffness_drift": {"drift": (0.06, 0.15)},
-        "coulomb_friction": {"F_c": (5e-3, 2e-2)},  # at the output, as in the free oscillation
-        "sensor_gain": {"gain": (0.04, 0.1)},  # the AS5043's look-alike of the drift in the linear range
-    },
-}
-SIGNED = {"inertia_error", "spring_stiffness_drift", "sensor_offset", "force_offset", "sensor_gain"}
+    exp: synthetic_ranges(VSAUT2_LIBRARY, exp) for exp in EXPERIMENTS}
+SIGNED = signed_effects(VSAUT2_LIBRARY)
 
 #: the torque-deflection sweep: stiffness setting (N m/rad at phi = 0) and torque amplitude (N m)
 SWEEP_K = 1.0
@@ -162,7 +147,8 @@ def _identify_case(experiment: str, effect: str | None, seed: int) -> tuple[Any,
 
 #: the vsaUT-II's synthetic-recovery bench (:mod:`vsa_gym.identify.recovery`): every ``RANGES`` entry
 BENCH = SyntheticBench(catalogue=lambda: [(exp, eff) for exp, effs in RANGES.items() for eff in effs],
-                       negative_experiments=lambda: list(EXPERIMENTS), identify_case=_identify_case)
+                       negative_experiments=lambda: list(EXPERIMENTS), identify_case=_identify_case,
+                       main=main_parameters(VSAUT2_LIBRARY))
 
 __all__ = ["BENCH", "EXPERIMENTS", "RANGES", "SWEEP_K", "SWEEP_TORQUE", "draw_effect", "experiment_meta",
            "make_vsaut2_record"]

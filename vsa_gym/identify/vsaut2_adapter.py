@@ -37,8 +37,10 @@ from typing import Any
 import numba
 import numpy as np
 
+from vsa_gym.devices.vsaut2.effects import LIBRARY as VSAUT2_LIBRARY
 from vsa_gym.identify.adapters import Adapter, Theta, _get
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
+from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record
 from vsa_gym.physics.kernels import flatten_rows
 from vsa_gym.physics.sensors import AbsoluteEncoder
@@ -268,41 +270,16 @@ class Vsaut2Adapter(Adapter):
         self.x_ref = float(np.std(q)) or 1.0
 
     def _effects(self) -> dict[str, EffectSpec]:
-        F, v = self.T_ref, self.v_ref
-        where = f"at the {self.joint} joint"
-        p = self.params
-        free = {b.name for b in self.base}
-        c_key, I_key = ("c_o", "I_o") if self.joint == "output" else ("c_ad", "I_ad")
-        eff: dict[str, EffectSpec] = {
-            "coulomb_friction": EffectSpec("coulomb_friction", where,
-                                           (ParamSpec("F_c", "N m", 0.0, 0.5 * F, 0.0, 0.03 * F),)),
-        }
-        if self.joint == "output":
-            eff["stribeck_friction"] = EffectSpec("stribeck_friction", where, (
-                ParamSpec("F_s", "N m", 0.0, 0.5 * F, 0.0, 0.03 * F),
-                ParamSpec("w_s", "rad/s", 0.005 * v, 0.5 * v, 0.05 * v, 0.05 * v, main=False)))
-        if c_key not in free:
-            eff["viscous_friction"] = EffectSpec("viscous_friction", where,
-                                                 (ParamSpec("b", "N m s/rad", 0.0, 2 * F / v, 0.0, 0.05 * F / v),))
-        if I_key not in free:
-            eff["inertia_error"] = EffectSpec("inertia_error", f"of the {self.joint} ({I_key})",
-                                              (ParamSpec("rel", "-", -0.5, 1.0, 0.0, 0.05),))
-        if "lever.k" not in free:
-            eff["spring_stiffness_drift"] = EffectSpec("spring_stiffness_drift", "in the lever springs (k)",
-                                                       (ParamSpec("drift", "-", -0.5, 0.5, 0.0, 0.05),))
-        C = float(p.belt.C_belt)
-        r_op = float(p.belt.r_op)
-        eff["transmission_compliance"] = EffectSpec("transmission_compliance", "in the belt", (
-            ParamSpec("compliance", "m/N", 0.0, 3.0 / C, 0.0, 0.2 / C),))
-        eff["backlash"] = EffectSpec("backlash", "in the belt (half-width of the stretch dead zone)", (
-            ParamSpec("width", "m", 0.0, 0.1 * r_op * self.x_ref + 2e-4, 0.0, 2e-5),))
-        if self.frame_actuated:
-            eff["gearbox_efficiency"] = EffectSpec("gearbox_efficiency", "in the GP42C frame gearbox",
-                                                   (ParamSpec("loss", "-", 0.0, 0.6, 0.0, 0.05),))
-        eff["force_offset"] = EffectSpec("force_offset", "on the output (constant torque)",
-                                         (ParamSpec("F_0", "N m", -0.3 * F, 0.3 * F, 0.0, 0.02 * F),))
+        """The vsaUT-II library's effects that apply to this record (:mod:`vsa_gym.devices.vsaut2.effects`), then
+        the output sensors' measurement effects."""
+        eff = physics_specs(VSAUT2_LIBRARY, self)
         eff.update(self._sensor_effects())
         return eff
+
+    @property
+    def free(self) -> set[str]:
+        """The nominal parameters fitted as base parameters (``model.free``, dotted leaf names)."""
+        return {b.name for b in self.base}
 
 
 __all__ = ["Vsaut2Adapter", "leaf_names"]

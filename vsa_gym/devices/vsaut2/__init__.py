@@ -23,6 +23,7 @@ DEVICE = DeviceSpec(
         needs_message="vsaut2 record needs a motor voltage / current or an external torque input",
     ),
     adapter="vsa_gym.identify.vsaut2_adapter:Vsaut2Adapter",
+    effects="vsa_gym.devices.vsaut2.effects:LIBRARY",
     recovery="vsa_gym.identify.synthetic_vsaut2:BENCH",
     envs=(
         EnvEntry("VsaUT2-PositionStiffness-v0", "vsa_gym.envs.vsaut2_position_stiffness:VsaUT2PositionStiffness",

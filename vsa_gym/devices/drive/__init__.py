@@ -25,4 +25,5 @@ DEVICE = DeviceSpec(
         needs_message="drive record needs a drive input: voltage, current, force or a closed-loop reference",
     ),
     adapter="vsa_gym.identify.adapters:DriveAdapter",
+    effects="vsa_gym.devices.drive.effects:LIBRARY",
 )

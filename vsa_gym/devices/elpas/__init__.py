@@ -21,6 +21,7 @@ DEVICE = DeviceSpec(
         needs_message="elpas rig record needs the imposed wishbone angle 'alpha' as an input",
     ),
     adapter="vsa_gym.identify.elpas_adapter:ElpasAdapter",
+    effects="vsa_gym.devices.elpas.effects:LIBRARY",
     recovery="vsa_gym.identify.synthetic_elpas:BENCH",
     envs=(
         EnvEntry("ELPAS-ForceTracking-v0", "vsa_gym.envs.elpas_force_tracking:ElpasForceTracking", 5000),

@@ -1,0 +1,113 @@
+"""The generic drive's effect library (:mod:`vsa_gym.identify.library`): what
+:class:`vsa_gym.identify.adapters.DriveAdapter` may name, with bounds scaled to the record (``F_ref``: the peak
+nominal drive force, ``v_ref``: the peak speed, ``x_ref``: the position spread, all of the nominal replay) and the
+magnitudes the synthetic drive records plant (:mod:`vsa_gym.identify.synthetic`).  The equations are the drive
+model's (:mod:`vsa_gym.identify.drive`, parameter mapping in ``DriveAdapter.param_matrix``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vsa_gym.identify.library import Effect, Param
+
+SYNTHETIC = "synthetic_drive"  # the experiment of vsa_gym.identify.synthetic.make_drive_record
+SOURCE = "a 2 kg axis driven at 10 N/V (synthetic records): friction of a few per cent of the drive force, " \
+    "encoder-scale backlash, a 4-8 Hz transmission mode"
+
+
+def _lin(a: Any) -> str:
+    return a.units[0]
+
+
+def _rot(a: Any) -> str:
+    return a.units[1]
+
+
+def _x_min(a: Any) -> float:
+    """The smallest presliding travel that is a resolved regime and not a friction that sticks: a few sensor
+    counts, or 2e-4 of the position spread."""
+    res = max((s.resolution for s in a.outputs if s.quantity == "position"), default=0.0)
+    return max(2e-4 * a.x_ref, 4.0 * res)
+
+
+def _k_typ(a: Any) -> float:
+    """A typical transmission stiffness: a mode at 20 Hz on the reduced mass."""
+    return 4 * np.pi**2 * 400.0 * float(a.params.m) / 4
+
+
+def _f_max(a: Any) -> float:
+    """The drive's peak force, replayed or recorded (a closed loop's recorded command holds the weight of a
+    vertical axis, which the nominal replay does not)."""
+    return max(a.F_ref, float(np.max(np.abs(a.params.k_u * a.u))))
+
+
+AT_LOAD = "at the load"
+IN_TRANSMISSION = "in the transmission"
+
+LIBRARY: tuple[Effect, ...] = (
+    Effect("coulomb_friction", AT_LOAD, (Param("F_c", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0,
+                                               lambda a: 0.03 * a.F_ref),),
+           enters="adds F_c to the drive's Coulomb friction F_c sign(v)", when=lambda a: "F_c" not in a.free,
+           synthetic={SYNTHETIC: {"F_c": (0.6, 2.0)}}, source=SOURCE),
+    Effect("stribeck_friction", AT_LOAD, (
+        Param("F_s", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0, lambda a: 0.03 * a.F_ref),
+        Param("v_s", lambda a: f"{a.units[0]}/s", lambda a: 0.005 * a.v_ref, lambda a: 0.5 * a.v_ref,
+              lambda a: 0.05 * a.v_ref, lambda a: 0.05 * a.v_ref, main=False)),
+           enters="the static excess of the LuGre steady state: F_f = (F_c + F_s exp(-(v/v_s)^2)) tanh(v/v_eps) + b v",
+           synthetic={SYNTHETIC: {"F_s": (1.0, 2.5), "v_s": (0.02, 0.05)}}, source=SOURCE),
+    Effect("viscous_friction", AT_LOAD, (Param("b", lambda a: f"{a.units[1]} s/{a.units[0]}", 0.0,
+                                               lambda a: 2 * a.F_ref / a.v_ref, 0.0,
+                                               lambda a: 0.05 * a.F_ref / a.v_ref),),
+           enters="adds b to the viscous damping", when=lambda a: "b" not in a.free,
+           synthetic={SYNTHETIC: {"b": (4.0, 10.0)}}, source=SOURCE),
+    Effect("backlash", IN_TRANSMISSION, (Param("width", _lin, 0.0, lambda a: 0.2 * a.x_ref, 0.0,
+                                               lambda a: 0.005 * a.x_ref),),
+           enters="a dead zone of total width `width` in the transmission between motor and load (one-sided "
+                  "contact)", when=lambda a: "backlash" not in a.free,
+           synthetic={SYNTHETIC: {"width": (2e-3, 5e-3)}}, source=SOURCE),
+    Effect("transmission_compliance", IN_TRANSMISSION, (
+        Param("compliance", lambda a: f"{a.units[0]}/{a.units[1]}", 0.0, lambda a: 1.0 / (_k_typ(a) / 25), 0.0,
+              lambda a: 1.0 / _k_typ(a)),),
+           enters="a spring of stiffness 1 / compliance between motor and load (a rigid drive: k_c = 0)",
+           when=lambda a: float(a.params.k_c) == 0.0,
+           synthetic={SYNTHETIC: {"compliance": (1 / (4 * np.pi**2 * 8.0**2 * 0.5),
+                                                 1 / (4 * np.pi**2 * 4.0**2 * 0.5))}}, source=SOURCE),
+    Effect("spring_stiffness_drift", "in the transmission spring", (Param("drift", "-", -0.5, 0.5, 0.0, 0.05),),
+           enters="scales the transmission spring k_c by (1 + drift)",
+           when=lambda a: float(a.params.k_c) != 0.0 and "k_c" not in a.free, signed=True),
+    # forward loss 1 - eta; back-driven loss 1 - eta_b (same start: a symmetric mesh)
+    Effect("gearbox_efficiency", IN_TRANSMISSION, (
+        Param("loss", "-", 0.0, 0.7, 0.0, 0.05),
+        Param("loss_back", "-", 0.0, 0.8, 0.0, 0.05, main=False, check_bound=False)),
+           enters="mesh efficiency eta = 1 - loss when the motor drives (the load receives eta F_mesh), "
+                  "eta_b = 1 - loss_back back-driven (it receives F_mesh / eta_b)",
+           synthetic={SYNTHETIC: {"loss": (0.1, 0.3)}}, source=SOURCE),
+    # Dahl force F_h and its presliding travel x_h = F_h / sigma_h; a travel of a few sensor counts or less is
+    # not a resolved presliding regime but a friction that sticks (Coulomb friction)
+    Effect("hysteresis", AT_LOAD, (
+        Param("F_h", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0, lambda a: 0.03 * a.F_ref),
+        Param("x_h", _lin, _x_min, lambda a: 0.3 * a.x_ref, lambda a: max(0.01 * a.x_ref, 2 * _x_min(a)),
+              lambda a: max(0.01 * a.x_ref, 2 * _x_min(a)), main=False)),
+           enters="a Dahl force h on the load: dh/dt = sigma_h (v - |v| h / F_h), sigma_h = F_h / x_h",
+           synthetic={SYNTHETIC: {"F_h": (0.8, 2.0)}}, source=SOURCE),
+    Effect("inertia_error", "of the moving parts", (Param("rel", "-", -0.5, 1.0, 0.0, 0.05, tolerance=0.05),),
+           enters="scales the moving mass m by (1 + rel)", when=lambda a: "m" not in a.free,
+           synthetic={SYNTHETIC: {"rel": (0.15, 0.4)}}, signed=True, source=SOURCE),
+    # up to the drive's peak force (the weight can take most of it); below 1 % of the peak drive force it is
+    # within an amplifier's zero offset (a per cent of full scale)
+    Effect("force_offset", AT_LOAD, (Param("F_0", _rot, lambda a: -_f_max(a), _f_max, 0.0,
+                                           lambda a: 0.02 * a.F_ref, tolerance=lambda a: 0.01 * a.F_ref),),
+           enters="a constant force F_0 on the load (weight, cable, amplifier zero offset)",
+           when=lambda a: "F_0" not in a.free,
+           synthetic={SYNTHETIC: {"F_0": (0.4, 1.5)}}, signed=True, source=SOURCE),
+    Effect("sensor_gain", measurement=True, synthetic={SYNTHETIC: {"gain": (0.03, 0.08)}}, signed=True,
+           source=SOURCE),
+    Effect("sensor_offset", measurement=True, synthetic={SYNTHETIC: {"offset": (2e-3, 5e-3)}}, signed=True,
+           source=SOURCE),
+    Effect("sensor_delay", measurement=True, synthetic={SYNTHETIC: {"delay": (0.004, 0.012)}}, source=SOURCE),
+)
+
+__all__ = ["LIBRARY", "SYNTHETIC"]
