@@ -5,7 +5,7 @@ reference is inverted through the lever model (eqs. 5-6, ``lever.k``), the feed-
 modelled spring and friction torques, and the position shaping uses ``I_o``.  "Retuning on a model"
 here means two things, both done on that model's environment only:
 
-1. **rebuild** the controller with the model's parameter set (:class:`~vsa_gym.vsaut2.params.VsaUT2Params`,
+1. **rebuild** the controller with the model's parameter set (:class:`~vsa_gym.devices.vsaut2.params.VsaUT2Params`,
    e.g. the identified one);
 2. **search** a few gains: two log-scale multipliers, one on the pivot PID (``kp_pivot``, ``ki_pivot``,
    ``kd_pivot``) and one on the frame PID (``kp_frame``, ``ki_frame``, ``kd_frame``), by Nelder-Mead
@@ -30,7 +30,7 @@ from scipy.optimize import minimize
 
 from baselines.metrics import PolicyFactory, evaluate_policy
 from baselines.vsaut2_decoupled import VsaUT2Decoupled, VsaUT2DecoupledConfig
-from vsa_gym.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.params import VsaUT2Params
 
 PS_ENV = "vsa_gym/VsaUT2-PositionStiffness-v0"
 

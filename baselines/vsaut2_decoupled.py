@@ -8,8 +8,8 @@ measured speed ``w2_hat``) drives the frame motor voltage.
 
 Stiffness (pivot motor): the stiffness reference ``K_ref`` is inverted in three steps:
 the belt in series (``K_s = K_ref K_b / (K_b - K_ref)``), eq. (6) at the current deflection
-(``K_s / cos(2 phi_c)`` at phi = 0, then :func:`vsa_gym.physics.lever.pivot_for_stiffness`) and
-eq. (5) (:func:`vsa_gym.physics.pivot.sun_angle_for`) to the pivot motor angle; a PID on the
+(``K_s / cos(2 phi_c)`` at phi = 0, then :func:`vsa_gym.devices.vsaut2.lever.pivot_for_stiffness`) and
+eq. (5) (:func:`vsa_gym.devices.vsaut2.pivot.sun_angle_for`) to the pivot motor angle; a PID on the
 pivot motor angle (derivative on ``w1_hat``) drives the pivot motor voltage.
 
 Model feed-forward (both motors): ``u_ff = R i_ff + k_e w_ref`` with ``w_ref`` the motor speed of
@@ -36,10 +36,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from vsa_gym.physics.belt import belt_stiffness_at_frame
-from vsa_gym.physics.lever import pivot_for_stiffness
-from vsa_gym.physics.pivot import pivot_jacobian, sun_angle_for
-from vsa_gym.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.belt import belt_stiffness_at_frame
+from vsa_gym.devices.vsaut2.lever import pivot_for_stiffness
+from vsa_gym.devices.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.pivot import pivot_jacobian, sun_angle_for
 
 VSAUT2_PS_OBS = ("q1_hat", "q2_hat", "r_hat", "w1_hat", "w2_hat", "r_dot_hat", "i1", "i2", "log_K_hat", "i2t_1",
                  "i2t_2", "r_ref", "log_K_ref", "r_err", "log_K_err")

@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 
-from vsa_gym.vsaut2.model import VsaUT2Model
+from vsa_gym.devices.vsaut2.model import VsaUT2Model
 
 
 def modes(q1: float, model: VsaUT2Model | None = None) -> np.ndarray:

@@ -3,7 +3,7 @@
 ``python -m benchmarks.identify_close_loop [--out DIR] [--seed S] [--experiment E] [--quick] [--case vsaut2|elpas]``
 
 The case: the vsaUT-II with a drifted lever spring (``spring_stiffness_drift``: ``lever.k`` off by
-+-6 ... 15 %, the range of :data:`vsa_gym.identify.synthetic_vsaut2.RANGES`; seed 1: +10.6 %).  The
++-6 ... 15 %, the range of :data:`vsa_gym.devices.vsaut2.synthetic.RANGES`; seed 1: +10.6 %).  The
 decoupled position/stiffness baseline (:mod:`baselines.vsaut2_decoupled`) sets the stiffness open loop
 by inverting the lever model, so a spring-rate error becomes a stiffness tracking error one for one.
 ``--case elpas`` runs the eLPAS force-tracking rig with a drifted cone spring (:func:`run_elpas`):
@@ -15,7 +15,7 @@ cascade at all, so a planted friction effect could not change the rebuilt contro
 Steps:
 
 1. the "measured" record: the paper's free-oscillation experiment (Fig. 10) run on the truth plant
-   by the seeded generator (:func:`~vsa_gym.identify.synthetic_vsaut2.make_vsaut2_record`, AS5043
+   by the seeded generator (:func:`~vsa_gym.devices.vsaut2.synthetic.make_vsaut2_record`, AS5043
    quantisation and noise);
 2. ``Identifier().fit(record)`` names the effect and fits it (test part of the record held out);
 3. the identified parameter set ``Vsaut2Adapter.identified_params(theta)`` rebuilds the environment,
@@ -57,10 +57,10 @@ import vsa_gym  # noqa: E402, F401  (registers the ids)
 from baselines.metrics import PolicyFactory, evaluate_policy  # noqa: E402
 from baselines.retune import PS_ENV, RetuneResult, decoupled_factory, retune_decoupled  # noqa: E402
 from baselines.vsaut2_decoupled import VsaUT2DecoupledConfig  # noqa: E402
+from vsa_gym.devices.vsaut2.adapter import Vsaut2Adapter  # noqa: E402
+from vsa_gym.devices.vsaut2.params import VsaUT2Params  # noqa: E402
+from vsa_gym.devices.vsaut2.synthetic import make_vsaut2_record  # noqa: E402
 from vsa_gym.identify.pipeline import IdentificationResult, Identifier  # noqa: E402
-from vsa_gym.identify.synthetic_vsaut2 import make_vsaut2_record  # noqa: E402
-from vsa_gym.identify.vsaut2_adapter import Vsaut2Adapter  # noqa: E402
-from vsa_gym.vsaut2.params import VsaUT2Params  # noqa: E402
 
 ENV_ID = PS_ENV
 EXPERIMENT = "free_oscillation"

@@ -184,7 +184,7 @@ def measure_core(window_s: float, sizes: tuple[int, ...]) -> dict[str, Any]:
     ``cpu_us_per_rhs_row`` = CPU time per step / (rows x RHS evaluations per step): the cost of one
     evaluation of the equations of motion for one row, all threads counted.
     """
-    from vsa_gym.vsaut2.model import ETD_SUBSTEPS_PER_MS, SUBSTEPS_PER_MS, VsaUT2Model
+    from vsa_gym.devices.vsaut2.model import ETD_SUBSTEPS_PER_MS, SUBSTEPS_PER_MS, VsaUT2Model
 
     out: dict[str, Any] = {}
     for integ, per_ms in (("rk4", SUBSTEPS_PER_MS), ("etd", ETD_SUBSTEPS_PER_MS)):
@@ -276,7 +276,7 @@ def accuracy(env_id: str, n_steps: int, seed: int = 0, **kwargs: Any) -> dict[st
 def measure_identification(duration_s: float, window_s: float) -> dict[str, Any]:
     out: dict[str, Any] = {}
     # the vsaUT-II core replaying a record (what an identification of the actuator replays)
-    from vsa_gym.vsaut2.model import VsaUT2Model
+    from vsa_gym.devices.vsaut2.model import VsaUT2Model
 
     model = VsaUT2Model()
     T = int(round(duration_s / 1e-3))

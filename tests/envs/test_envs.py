@@ -11,8 +11,8 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import vsa_gym  # noqa: F401  (registers the ids)
+from vsa_gym.devices.vsaut2.model import POWER, VsaUT2Model
 from vsa_gym.envs import ENV_IDS
-from vsa_gym.vsaut2.model import POWER, VsaUT2Model
 
 IDS = list(ENV_IDS)
 
@@ -228,7 +228,7 @@ def test_info_reward_components_sum_to_reward() -> None:
 
 
 def test_domain_randomization_and_params_plug_in() -> None:
-    from vsa_gym.vsaut2.params import VsaUT2Params
+    from vsa_gym.devices.vsaut2.params import VsaUT2Params
 
     env = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", domain_randomization={"I_o": (0.005, 0.02)})
     env.reset(seed=0)
@@ -275,8 +275,8 @@ def test_sb3_adapter_and_five_line_training() -> None:
 @pytest.mark.parametrize("randomized", [False, True])
 def test_compiled_vsaut2_sensing_equals_the_sensor_models(randomized: bool) -> None:
     """The env's compiled per-step sensing gives what the sensor objects and the model's numpy functions give."""
-    from vsa_gym.physics.lever import spring_stiffness
-    from vsa_gym.physics.pivot import pivot_position
+    from vsa_gym.devices.vsaut2.lever import spring_stiffness
+    from vsa_gym.devices.vsaut2.pivot import pivot_position
 
     kw = {"domain_randomization": {"lever.k": (1500.0, 2200.0)}} if randomized else {}
     venv = gym.make_vec("vsa_gym/VsaUT2-PositionStiffness-v0", num_envs=3, vectorization_mode="vector_entry_point",

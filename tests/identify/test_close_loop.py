@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from benchmarks.identify_close_loop import ENV_ID, CloseLoopSettings, markdown, run
-from vsa_gym.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.params import VsaUT2Params
 
 
 @pytest.fixture(scope="module")

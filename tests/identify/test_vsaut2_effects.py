@@ -1,7 +1,7 @@
 """vsaUT-II: hidden effects in seeded synthetic records of the paper's experiments.
 
 Each record hides one effect of random realistic magnitude
-(:data:`vsa_gym.identify.synthetic_vsaut2.RANGES`), measured through the AS5043
+(:data:`vsa_gym.devices.vsaut2.synthetic.RANGES`), measured through the AS5043
 (10 bit, gain mismatch) or the frame motor encoder with noise below one count.  The
 identifier must name that effect and nothing else, recover its main parameter within
 ``REL_TOL``, and improve the held-out (test part) error; negative controls must report none.
@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 
 from tests.identify.recovery import assert_planted_effect_recovered
+from vsa_gym.devices.vsaut2.adapter import Vsaut2Adapter
+from vsa_gym.devices.vsaut2.experiments import fig10_free_oscillation
+from vsa_gym.devices.vsaut2.model import POWER, VsaUT2Model
+from vsa_gym.devices.vsaut2.params import VsaUT2Effects, VsaUT2Params
+from vsa_gym.devices.vsaut2.synthetic import make_vsaut2_record
 from vsa_gym.identify.adapters import make_adapter
 from vsa_gym.identify.recovery import identify_case, main_key
-from vsa_gym.identify.synthetic_vsaut2 import make_vsaut2_record
-from vsa_gym.identify.vsaut2_adapter import Vsaut2Adapter
-from vsa_gym.vsaut2.experiments import fig10_free_oscillation
-from vsa_gym.vsaut2.model import POWER, VsaUT2Model
-from vsa_gym.vsaut2.params import VsaUT2Effects, VsaUT2Params
 
 REL_TOL = 0.10
 
@@ -65,7 +65,7 @@ def test_constant_current_negative_control_reports_none():
 def test_torque_sweep_reaches_the_lever_nonlinear_range_below_the_stops():
     """The sweep's design: the deflection goes where ``sin(2 phi) / (2 phi)`` is well below 1 (the lever is
     nonlinear), but the spring end stays short of its travel stop ``x_max``."""
-    from vsa_gym.physics.lever import lever_ratio
+    from vsa_gym.devices.vsaut2.lever import lever_ratio
 
     rec, _ = make_vsaut2_record(2000, "torque_sweep", None)
     p = VsaUT2Params()

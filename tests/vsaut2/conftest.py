@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from vsa_gym.vsaut2.model import VsaUT2Model
+from vsa_gym.devices.vsaut2.model import VsaUT2Model
 
 
 @pytest.fixture(scope="session")

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from vsa_gym.devices.vsaut2.model import N_STATES, VsaUT2Model
 from vsa_gym.physics.integrate import reference_solution
-from vsa_gym.vsaut2.model import N_STATES, VsaUT2Model
 
 from .conftest import input_program
 

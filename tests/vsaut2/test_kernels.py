@@ -4,10 +4,10 @@ import numba
 import numpy as np
 import pytest
 
+from vsa_gym.devices.vsaut2.model import N_POWER, N_STATES, PARALLEL_MIN_ROWS, PORTS, VsaUT2Model, rhs_core, rhs_rows
+from vsa_gym.devices.vsaut2.params import VsaUT2Effects, VsaUT2Params
 from vsa_gym.physics.contact import FAR, penalty_contact
 from vsa_gym.physics.gearbox import input_torque
-from vsa_gym.vsaut2.model import N_POWER, N_STATES, PARALLEL_MIN_ROWS, PORTS, VsaUT2Model, rhs_core, rhs_rows
-from vsa_gym.vsaut2.params import VsaUT2Effects, VsaUT2Params
 
 
 def _same_bits(a: np.ndarray, b: np.ndarray) -> bool:
@@ -144,7 +144,7 @@ def test_batch_equals_rows_one_by_one(integrator):
 
 def test_serial_and_parallel_kernels_have_their_own_cache_entries():
     """numba's cache key ignores ``parallel``: the two compilations of a kernel must not share a function name."""
-    from vsa_gym.vsaut2 import model as core
+    from vsa_gym.devices.vsaut2 import model as core
 
     for serial, parallel in ((core.rk4_rows, core.rk4_rows_parallel),
                              (core.etd_rows, core.etd_rows_parallel)):

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from vsa_gym.vsaut2 import experiments as ex
-from vsa_gym.vsaut2.calibration import TARGET_TIME_S, stiffness_variation_time
-from vsa_gym.vsaut2.datasheet import compute, format_table
+from vsa_gym.devices.vsaut2 import experiments as ex
+from vsa_gym.devices.vsaut2.calibration import TARGET_TIME_S, stiffness_variation_time
+from vsa_gym.devices.vsaut2.datasheet import compute, format_table
 
 
 def test_fig10_period_and_decay(model):

@@ -5,14 +5,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from vsa_gym.physics.belt import belt_stiffness_at_frame
+from vsa_gym.devices.vsaut2.belt import belt_stiffness_at_frame
+from vsa_gym.devices.vsaut2.lever import lever_forces, spring_stiffness
+from vsa_gym.devices.vsaut2.model import POWER, STATE, VsaUT2Model
+from vsa_gym.devices.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.pivot import gear_ratio, pivot_jacobian, pivot_position
+from vsa_gym.devices.vsaut2.statics import static_output_stiffness
 from vsa_gym.physics.dc_motor import DCMotorParams
 from vsa_gym.physics.gearbox import GearboxParams, input_torque
-from vsa_gym.physics.lever import lever_forces, spring_stiffness
-from vsa_gym.physics.pivot import gear_ratio, pivot_jacobian, pivot_position
-from vsa_gym.vsaut2.model import POWER, STATE, VsaUT2Model
-from vsa_gym.vsaut2.params import VsaUT2Params
-from vsa_gym.vsaut2.statics import static_output_stiffness
 
 from .conftest import input_program
 
@@ -187,7 +187,7 @@ def test_extension_port_adds_a_joint_force(model):
             return np.zeros((n, 0))
 
         def evaluate(self, params, kin, z):
-            from vsa_gym.vsaut2.model import ExtensionOutput
+            from vsa_gym.devices.vsaut2.model import ExtensionOutput
 
             return ExtensionOutput({"output": -self.c * kin.r_dot}, np.zeros((kin.r_dot.shape[0], 0)),
                                    self.c * kin.r_dot**2)

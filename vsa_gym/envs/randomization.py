@@ -1,7 +1,7 @@
 """Domain randomisation: uniform ranges over named parameters, resampled on every reset.
 
 Parameters are addressed by dotted paths into the physics core's parameter set,
-e.g. ``"lever.k"`` or ``"I_o"`` for :class:`vsa_gym.vsaut2.params.VsaUT2Params`,
+e.g. ``"lever.k"`` or ``"I_o"`` for :class:`vsa_gym.devices.vsaut2.params.VsaUT2Params`,
 ``"friction.F_c"`` or ``"car.m_s"`` for :class:`vsa_gym.elpas.params.ElpasParams`::
 
     env = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0",

@@ -9,7 +9,7 @@ device tests (``tests/identify/test_{vsaut2,elpas}_effects.py``).
 
 Each device declares its bench (:class:`SyntheticBench`) in :mod:`vsa_gym.devices`:
 
-* vsaUT-II (:data:`vsa_gym.identify.synthetic_vsaut2.BENCH`): the catalogue is ``RANGES[experiment]``,
+* vsaUT-II (:data:`vsa_gym.devices.vsaut2.synthetic.BENCH`): the catalogue is ``RANGES[experiment]``,
   fitted with ``Identifier()`` on the record's own fit/validation parts, scored on its test part.
 * eLPAS (:data:`vsa_gym.identify.synthetic_elpas.BENCH`): the catalogue is ``ELPAS_RANGES``; the fit
   record is a sine or step force test of ``ELPAS_DURATION`` s, the held-out record the

@@ -1,8 +1,8 @@
 """The vsaUT-II's effect library (:mod:`vsa_gym.identify.library`): what
-:class:`vsa_gym.identify.vsaut2_adapter.Vsaut2Adapter` may name, with bounds scaled to the record (``T_ref``: the
+:class:`vsa_gym.devices.vsaut2.adapter.Vsaut2Adapter` may name, with bounds scaled to the record (``T_ref``: the
 peak torque of the joint that moves, ``v_ref``: its peak speed, ``x_ref``: its angle spread, of the nominal
 replay), and the magnitudes the synthetic records of the paper's experiments plant
-(:mod:`vsa_gym.identify.synthetic_vsaut2`).  The equations are the core's (``VsaUT2Params.effects``, the lever,
+(:mod:`vsa_gym.devices.vsaut2.synthetic`).  The equations are the core's (``VsaUT2Params.effects``, the lever,
 belt and gearbox laws), the mapping ``Vsaut2Adapter.changes``.
 """
 

@@ -1,0 +1,181 @@
+"""The vsaUT-II's compiled row kernels: the right-hand side, RK4 and exponential RK4 steps of every row of a
+batch (serial and threaded), and the readers of the flattened parameter rows (:mod:`vsa_gym.devices.vsaut2.model`
+calls them; the environments' task steps call them directly)."""
+
+from __future__ import annotations
+
+import types
+from typing import Any
+
+import numba
+import numpy as np
+
+from vsa_gym.devices.vsaut2.equations import rhs_row
+from vsa_gym.devices.vsaut2.layout import ETD_STIFF, N_POWER, N_STATES, Derived
+from vsa_gym.devices.vsaut2.params import VsaUT2Params
+from vsa_gym.physics.integrate import etdrk4_weights
+from vsa_gym.physics.kernels import row_reader
+
+
+def _rhs_rows_py(x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any) -> tuple[np.ndarray, np.ndarray]:
+    n = x.shape[0]
+    dx = np.empty((n, N_STATES))
+    pw = np.empty((n, N_POWER))
+    for i in numba.prange(n):
+        rhs_row(P_ROW(P, i), D_ROW(D, i), x[i], u[i, 0], u[i, 1], tau[i], dx[i], pw[i])
+    return dx, pw
+
+
+def _rk4_rows_py(
+    x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any, dt: float, n_sub: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`vsa_gym.physics.integrate.rk4` over :func:`rhs_point`, row by row with floats (no extensions).
+
+    The arithmetic of each element is that of the numpy ``rk4`` (same operations, same order).
+    """
+    n = x.shape[0]
+    h = dt / n_sub
+    x_new = np.empty((n, N_STATES))
+    energy = np.zeros((n, N_POWER))
+    for i in numba.prange(n):
+        p = P_ROW(P, i)
+        d = D_ROW(D, i)
+        u_1, u_2, te = u[i, 0], u[i, 1], tau[i]
+        y = x[i].copy()
+        yt = np.empty(N_STATES)
+        k = np.empty((4, N_STATES))
+        q = np.empty((4, N_POWER))
+        e = np.zeros(N_POWER)
+        for _ in range(n_sub):
+            rhs_row(p, d, y, u_1, u_2, te, k[0], q[0])
+            for j in range(N_STATES):
+                yt[j] = y[j] + 0.5 * h * k[0, j]
+            rhs_row(p, d, yt, u_1, u_2, te, k[1], q[1])
+            for j in range(N_STATES):
+                yt[j] = y[j] + 0.5 * h * k[1, j]
+            rhs_row(p, d, yt, u_1, u_2, te, k[2], q[2])
+            for j in range(N_STATES):
+                yt[j] = y[j] + h * k[2, j]
+            rhs_row(p, d, yt, u_1, u_2, te, k[3], q[3])
+            for j in range(N_STATES):
+                y[j] = y[j] + (h / 6.0) * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
+            for j in range(N_POWER):
+                e[j] = e[j] + (h / 6.0) * (q[0, j] + 2.0 * q[1, j] + 2.0 * q[2, j] + q[3, j])
+        x_new[i] = y
+        energy[i] = e
+    return x_new, energy
+
+
+def _etd_rows_py(
+    x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any, dt: float, n_sub: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`vsa_gym.physics.integrate.exponential_rk4` over :func:`rhs_point`, row by row (no extensions).
+
+    Stiff columns :data:`ETD_STIFF` (the currents) with the constant rates ``R/L`` of the row's
+    motors; the weights are those of the numpy step (``etdrk4_weights``), the stages the same
+    operations in the same order, so the two paths agree to round-off.
+    """
+    n = x.shape[0]
+    h = dt / n_sub
+    x_new = np.empty((n, N_STATES))
+    energy = np.zeros((n, N_POWER))
+    # rates and weights of row 0; every row's when the parameters are shared (not batched): computed once
+    p0 = P_ROW(P, 0)
+    lam0 = np.array([p0.pivot_motor.R / p0.pivot_motor.L, p0.frame_motor.R / p0.frame_motor.L])
+    w0 = etdrk4_weights(lam0, h)
+    shared = P.shape[0] == 1
+    for i in numba.prange(n):
+        p = P_ROW(P, i)
+        d = D_ROW(D, i)
+        u_1, u_2, te = u[i, 0], u[i, 1], tau[i]
+        if shared:
+            lam = lam0
+            e_half, w_half, e_full, f_u, f_ab, f_c = w0
+        else:
+            lam = np.array([p.pivot_motor.R / p.pivot_motor.L, p.frame_motor.R / p.frame_motor.L])
+            e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)  # constant over the step
+        y = x[i].copy()
+        ya = np.empty(N_STATES)
+        yb = np.empty(N_STATES)
+        yc = np.empty(N_STATES)
+        k = np.empty((4, N_STATES))
+        q = np.empty((4, N_POWER))
+        nl = np.empty((4, 2))
+        e = np.zeros(N_POWER)
+        for _ in range(n_sub):
+            rhs_row(p, d, y, u_1, u_2, te, k[0], q[0])
+            for j in range(N_STATES):
+                ya[j] = y[j] + 0.5 * h * k[0, j]
+            for s in range(2):
+                c = ETD_STIFF[s]
+                nl[0, s] = k[0, c] + lam[s] * y[c]
+                ya[c] = e_half[s] * y[c] + w_half[s] * nl[0, s]
+            rhs_row(p, d, ya, u_1, u_2, te, k[1], q[1])
+            for j in range(N_STATES):
+                yb[j] = y[j] + 0.5 * h * k[1, j]
+            for s in range(2):
+                c = ETD_STIFF[s]
+                nl[1, s] = k[1, c] + lam[s] * ya[c]
+                yb[c] = e_half[s] * y[c] + w_half[s] * nl[1, s]
+            rhs_row(p, d, yb, u_1, u_2, te, k[2], q[2])
+            for j in range(N_STATES):
+                yc[j] = y[j] + h * k[2, j]
+            for s in range(2):
+                c = ETD_STIFF[s]
+                nl[2, s] = k[2, c] + lam[s] * yb[c]
+                yc[c] = e_half[s] * ya[c] + w_half[s] * (2.0 * nl[2, s] - nl[0, s])
+            rhs_row(p, d, yc, u_1, u_2, te, k[3], q[3])
+            for s in range(2):
+                c = ETD_STIFF[s]
+                nl[3, s] = k[3, c] + lam[s] * yc[c]
+            for s in range(2):  # the stiff columns' update uses y at the start of the substep
+                c = ETD_STIFF[s]
+                ya[c] = e_full[s] * y[c] + h * (f_u[s] * nl[0, s] + f_ab[s] * (nl[1, s] + nl[2, s])
+                                                 + f_c[s] * nl[3, s])
+            for j in range(N_STATES):
+                y[j] = y[j] + (h / 6.0) * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
+            for s in range(2):
+                y[ETD_STIFF[s]] = ya[ETD_STIFF[s]]
+            for j in range(N_POWER):
+                e[j] = e[j] + (h / 6.0) * (q[0, j] + 2.0 * q[1, j] + 2.0 * q[2, j] + q[3, j])
+        x_new[i] = y
+        energy[i] = e
+    return x_new, energy
+
+
+P_ROW = row_reader(VsaUT2Params().as_tuple())
+D_ROW = row_reader(Derived(0.0, 0.0, 0.0, 0.0))
+
+@numba.njit(cache=True)
+def all_finite(a: np.ndarray) -> bool:
+    """``np.all(np.isfinite(a))`` for a C-contiguous array, without the temporary."""
+    for v in a.ravel():  # noqa: SIM110 (a loop numba compiles; no generator)
+        if not np.isfinite(v):
+            return False
+    return True
+
+
+#: Rows at and above which the compiled step runs its row loop on all cores (numba ``prange``).
+PARALLEL_MIN_ROWS = 64
+
+
+def _parallel_twin(f: Any) -> Any:
+    """``f`` under the name ``<name>_parallel``, for its ``parallel=True`` compilation.
+
+    numba names a cache entry after the function's qualified name and first line, and its index key
+    (signature, CPU, bytecode) does not include ``parallel``: compiled twice from the same function,
+    the serial and the parallel kernels share one cache entry, and whichever was saved first is loaded
+    for both -- one env then ran the threaded kernel (tens of us of thread start-up per step), or a
+    vector env the serial one.  The twin has its own entry.
+    """
+    twin = types.FunctionType(f.__code__, f.__globals__, f.__name__ + "_parallel", f.__defaults__, f.__closure__)
+    twin.__qualname__ = f.__qualname__ + "_parallel"
+    return twin
+
+
+rhs_rows = numba.njit(cache=True)(_rhs_rows_py)
+rk4_rows = numba.njit(cache=True)(_rk4_rows_py)
+rk4_rows_parallel = numba.njit(cache=True, parallel=True)(_parallel_twin(_rk4_rows_py))
+etd_rows = numba.njit(cache=True)(_etd_rows_py)
+etd_rows_parallel = numba.njit(cache=True, parallel=True)(_parallel_twin(_etd_rows_py))
+

@@ -1,0 +1,129 @@
+"""The vsaUT-II parameter set: every number of the model, with symbol, unit and source.
+
+The nested component sets are those of :mod:`vsa_gym.physics`; this module fixes
+their vsaUT-II values (Tables II and III, Sec. III) and adds the device-level
+inertias, frictions and stops.  ``VsaUT2Params()`` is the nominal model.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from vsa_gym.devices.vsaut2.belt import BeltParams
+from vsa_gym.devices.vsaut2.lever import LeverParams, pivot_for_stiffness
+from vsa_gym.devices.vsaut2.pivot import PivotParams, sun_angle_for
+from vsa_gym.physics.dc_motor import DCMotorParams
+from vsa_gym.physics.gearbox import GearboxParams
+from vsa_gym.physics.parameters import ParameterSet, param
+
+
+def re20_motor() -> DCMotorParams:
+    """Pivot motor, Table II "RE-20" column (the paper names an RE-25; Table II is used)."""
+    return DCMotorParams(L=2.38e-4, R=2.19, k_t=2.34e-2, k_e=2.34e-2, J=1.07e-6, b=6.4e-6,
+                         U_max=24.0, I_max=12.0)
+
+
+def re40_motor() -> DCMotorParams:
+    """Frame motor, Maxon RE-40 (Table II)."""
+    return DCMotorParams()
+
+
+def gp26b_gearbox() -> GearboxParams:
+    """Pivot gearhead, Maxon GP26B (Table III)."""
+    return GearboxParams(n=84.0, tau_max=1.3, eta_max=0.59, alpha=7.0, J_in=4e-8)
+
+
+def gp42c_gearbox() -> GearboxParams:
+    """Frame gearhead, Maxon GP42C (Table III)."""
+    return GearboxParams()
+
+
+@dataclasses.dataclass(frozen=True)
+class VsaUT2Effects(ParameterSet):
+    """Model effects found by identification (:mod:`vsa_gym.identify`), as parameters of the compiled core.
+
+    Every default is zero = the effect is absent, and then the model is the nominal
+    one exactly (each term adds ``0.0``).  Friction is smooth Coulomb + Stribeck,
+    ``(F_c + F_s exp(-(w / w_s)^2)) tanh(w / w_eps)``, at a joint; backlash is a smooth
+    dead zone of half-width ``b_belt`` on the belt stretch.  Effects that are plain
+    parameter errors need no field here: inertia (``I_o``, ``I_ad``), viscous friction
+    (``c_o``, ``c_ad``), spring stiffness (``lever.k``), belt compliance
+    (``belt.C_belt``), gearbox efficiency (``frame_gearbox.eta_max``).  Spring
+    hysteresis stays an :class:`~vsa_gym.devices.vsaut2.model.Extension` (it carries a state).
+    """
+
+    F_c_o: float = param(0.0, symbol="F_c,o", unit="N m", source="identification effect", tag="proposed",
+                         lower=0.0, doc="Coulomb friction at the output joint r (0: absent)")
+    F_s_o: float = param(0.0, symbol="F_s,o", unit="N m", source="identification effect", tag="proposed",
+                         lower=0.0, doc="Stribeck (static minus Coulomb) friction at the output joint (0: absent)")
+    w_s_o: float = param(0.05, symbol="w_s,o", unit="rad/s", source="identification effect", tag="proposed",
+                         lower=0.0, strict_lower=True, doc="Stribeck speed at the output joint")
+    F_c_ad: float = param(0.0, symbol="F_c,ad", unit="N m", source="identification effect", tag="proposed",
+                          lower=0.0, doc="Coulomb friction at the frame joint q2 (0: absent)")
+    b_belt: float = param(0.0, symbol="b_belt", unit="m", source="identification effect", tag="proposed",
+                          lower=0.0, doc="backlash half-width on the belt stretch (dead zone, 0: absent)")
+    w_eps: float = param(1e-2, symbol="w_eps", unit="rad/s", source="smoothing of sign(w)", tag="numerics",
+                         lower=0.0, strict_lower=True, doc="speed scale of the smooth Coulomb friction")
+    b_eps: float = param(2e-6, symbol="b_eps", unit="m", source="smoothing of the dead zone", tag="numerics",
+                         lower=0.0, strict_lower=True, doc="corner width of the smooth backlash dead zone")
+
+
+@dataclasses.dataclass(frozen=True)
+class VsaUT2Params(ParameterSet):
+    """All parameters of the vsaUT-II model.
+
+    Nested sets: ``pivot_motor`` (RE-20, Table II), ``pivot_gearbox`` (GP26B),
+    ``frame_motor`` (RE-40), ``frame_gearbox`` (GP42C), ``pivot`` (planetary
+    mechanism), ``lever`` (springs, stops; ``l`` calibrated), ``belt``, ``effects``
+    (identified effects, all absent by default: :class:`VsaUT2Effects`).
+    """
+
+    pivot_motor: DCMotorParams = dataclasses.field(default_factory=re20_motor)
+    pivot_gearbox: GearboxParams = dataclasses.field(default_factory=gp26b_gearbox)
+    frame_motor: DCMotorParams = dataclasses.field(default_factory=re40_motor)
+    frame_gearbox: GearboxParams = dataclasses.field(default_factory=gp42c_gearbox)
+    pivot: PivotParams = dataclasses.field(default_factory=PivotParams)
+    lever: LeverParams = dataclasses.field(default_factory=LeverParams)
+    belt: BeltParams = dataclasses.field(default_factory=BeltParams)
+    effects: VsaUT2Effects = dataclasses.field(default_factory=VsaUT2Effects)
+
+    I_ad: float = param(1.2e-3, symbol="I_ad", unit="kg m^2", source="vsaUT-II Sec. III-F-1", tag="paper",
+                        lower=0.0, strict_lower=True, doc="actuated device (frame) inertia about q2")
+    c_ad: float = param(0.55, symbol="c_ad", unit="N m s/rad", source="vsaUT-II Sec. III-F-2, Fig. 9",
+                        tag="paper", lower=0.0, doc="extra viscous friction at q2")
+    I_o: float = param(1.1e-2, symbol="I_o", unit="kg m^2", source="vsaUT-II Sec. III-G-1 (test bar)",
+                       tag="paper", lower=0.0, strict_lower=True, doc="output link inertia")
+    c_o: float = param(1.2e-2, symbol="c", unit="N m s/rad", source="vsaUT-II Sec. III-G-2 (2 delta I_o)",
+                       tag="paper", lower=0.0, doc="output viscous friction")
+    K_min: float = param(0.7, symbol="K_min", unit="N m/rad", source="vsaUT-II Table IV row 9", tag="paper",
+                         lower=0.0, strict_lower=True,
+                         doc="minimum stiffness: sets the end of the pivot stroke q1_max")
+    q2_max: float = param(np.deg2rad(28.6), symbol="q2_max", unit="rad",
+                          source="active rotation angle +-28.6 deg, Table IV row 14", tag="derived",
+                          lower=0.0, strict_lower=True, doc="frame end stops")
+    K_q2: float = param(2000.0, symbol="K_q2", unit="N m/rad", source="frame end-stop stiffness",
+                        tag="proposed", lower=0.0, doc="frame end-stop stiffness")
+    D_q2: float = param(5.0, symbol="D_q2", unit="N m s/rad", source="frame end-stop damping", tag="proposed",
+                        lower=0.0, doc="frame end-stop damping")
+    K_s1: float = param(1.0, symbol="K_s1", unit="N m/rad", source="pivot stroke stop stiffness at the motor",
+                        tag="proposed", lower=0.0, doc="pivot-stroke stop stiffness (motor shaft)")
+    D_s1: float = param(2e-3, symbol="D_s1", unit="N m s/rad", source="pivot stroke stop damping",
+                        tag="proposed", lower=0.0, doc="pivot-stroke stop damping (motor shaft)")
+
+    # ------------------------------------------------------------------ derived quantities
+    @property
+    def q1_max(self) -> float | np.ndarray:
+        """End of the pivot stroke: where the spring stiffness (eq. 6) equals ``K_min`` (m)."""
+        return pivot_for_stiffness(self.lever, self.K_min)
+
+    @property
+    def theta1_max(self) -> float | np.ndarray:
+        """Pivot motor angle at the soft end of the stroke (rad); the stiff end is 0."""
+        return self.pivot_gearbox.n * sun_angle_for(self.pivot, self.q1_max)
+
+    @property
+    def frame_ratio(self) -> float | np.ndarray:
+        """Frame motor angle per frame angle, ``n_GP42C z_out / z_in`` (226.9)."""
+        return self.frame_gearbox.n * self.belt.z_out / self.belt.z_in
