@@ -4,7 +4,7 @@
 
 The record is the truth simulator's single-backlash case ``seed`` (``tests.truthsim``: a sharp,
 one-sided gap in series with a lightly damped shaft).  The drive model
-(:class:`vsa_gym.identify.adapters.DriveAdapter`) replays it with ``backlash.width`` at the truth's
+(:class:`vsa_gym.devices.drive.adapter.DriveAdapter`) replays it with ``backlash.width`` at the truth's
 width and the closed gap's contact mode set by hand: frequency ``f`` on the reduced mass
 (``k_contact = (2 pi f)^2 m_r``) and damping ratio ``zeta`` (``c_c = 2 zeta sqrt(k m_r)``).  Printed:
 the RMS position error on the fit part of the record for every pair, beside the nominal model's
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from tests.truthsim.scenarios import draw_case, write_case
-from vsa_gym.identify.adapters import DriveAdapter
+from vsa_gym.devices.drive.adapter import DriveAdapter
 from vsa_gym.identify.record import load_record
 
 

@@ -1,5 +1,5 @@
 """Recovery rate and parameter error per catalogue effect over N seeds, and the false-positive rate
-on negative controls (generic drive, ``vsa_gym.identify.synthetic``).
+on negative controls (generic drive, ``vsa_gym.devices.drive.synthetic``).
 
     python benchmarks/identify_recovery.py [--seeds 20] [--out out/identify_recovery]
 
@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
+from vsa_gym.devices.drive.synthetic import DRIVE_EFFECTS, make_drive_record
 from vsa_gym.identify.library import main_parameters
 from vsa_gym.identify.pipeline import Identifier
-from vsa_gym.identify.synthetic import DRIVE_EFFECTS, make_drive_record
 
 MAIN = main_parameters(DRIVE_LIBRARY)  # the drive library's main parameter of each effect
 

@@ -289,9 +289,9 @@ def measure_identification(duration_s: float, window_s: float) -> dict[str, Any]
     wall = time.perf_counter() - t0
     out["vsaut2_replay_sim_s_per_wall_s"] = duration_s / wall
     try:
-        from vsa_gym.identify.adapters import DriveAdapter
+        from vsa_gym.devices.drive.adapter import DriveAdapter
+        from vsa_gym.devices.drive.synthetic import make_drive_record
         from vsa_gym.identify.pipeline import Identifier
-        from vsa_gym.identify.synthetic import make_drive_record
     except ImportError as exc:  # the workbench is optional here
         out["identify_available"] = False
         out["identify_reason"] = f"vsa_gym.identify not importable: {exc}"

@@ -225,9 +225,9 @@ def _theta_rows(ad: Any) -> tuple[dict[str, np.ndarray], int]:
 
 def _identify_records(tmp: Path) -> list[tuple[str, Path]]:
     from tests.truthsim.scenarios import draw_case, write_case
+    from vsa_gym.devices.drive.synthetic import make_drive_record
     from vsa_gym.devices.vsaut2.synthetic import make_vsaut2_record
     from vsa_gym.identify.record import write_record
-    from vsa_gym.identify.synthetic import make_drive_record
     from vsa_gym.identify.synthetic_elpas import make_elpas_record
 
     recs: list[tuple[str, Path]] = []

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from vsa_gym.cli import main
-from vsa_gym.identify.adapters import DriveAdapter
+from vsa_gym.devices.drive.adapter import DriveAdapter
 from vsa_gym.identify.pipeline import identify, output_metrics
 from vsa_gym.identify.record import SHIPPED_DIR, load_record, resolve
 

@@ -1,6 +1,6 @@
 """Hidden effects in seeded synthetic drive records: the right cause, its parameter, nothing else.
 
-Each record hides one effect of random magnitude (``vsa_gym.identify.synthetic.DRIVE_RANGES``),
+Each record hides one effect of random magnitude (``vsa_gym.devices.drive.synthetic.DRIVE_RANGES``),
 with encoder quantisation (10 um, floor) and white noise (20 um).  Tolerance on the
 recovered main parameter: 10 % relative.
 """
@@ -12,10 +12,10 @@ import pytest
 
 from tests.identify.recovery import assert_planted_effect_recovered
 from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
-from vsa_gym.identify.drive import DriveParams, simulate
+from vsa_gym.devices.drive.model import DriveParams, simulate
+from vsa_gym.devices.drive.synthetic import make_drive_record
 from vsa_gym.identify.library import main_parameters
 from vsa_gym.identify.pipeline import Identifier
-from vsa_gym.identify.synthetic import make_drive_record
 from vsa_gym.physics.friction import CoulombViscousParams, coulomb_viscous_moment
 
 REL_TOL = 0.10
@@ -87,7 +87,7 @@ def test_drive_friction_matches_the_physics_component():
 
 def test_backlash_contact_adds_only_the_gap():
     """Inside the gap no force; beyond it the fixed, well damped contact (not a free parameter) acts on d - g."""
-    from vsa_gym.identify.drive import E_CORNER, ZETA_CONTACT, _tforce, contact_stiffness
+    from vsa_gym.devices.drive.model import E_CORNER, ZETA_CONTACT, _tforce, contact_stiffness
 
     gap = 4e-3
     P = DriveParams(m=2.0, backlash=gap).vector(1)[0]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vsa_gym.identify.drive import N_STATE, DriveParams, simulate
+from vsa_gym.devices.drive.model import N_STATE, DriveParams, simulate
 
 M, FRAC, F = 2.0, 0.3, 10.0  # kg, motor-side share, N
 

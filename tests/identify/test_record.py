@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 
 from vsa_gym.cli import main
+from vsa_gym.devices.drive.synthetic import drive_meta
 from vsa_gym.identify.record import RecordError, check_record, load_record, resolve, write_record
-from vsa_gym.identify.synthetic import drive_meta
 
 
 def _good(tmp_path):

@@ -24,6 +24,6 @@ DEVICE = DeviceSpec(
         needs=frozenset({"voltage", "current", "force", "reference"}),
         needs_message="drive record needs a drive input: voltage, current, force or a closed-loop reference",
     ),
-    adapter="vsa_gym.identify.adapters:DriveAdapter",
+    adapter="vsa_gym.devices.drive.adapter:DriveAdapter",
     effects="vsa_gym.devices.drive.effects:LIBRARY",
 )

@@ -1,8 +1,8 @@
 """The generic drive's effect library (:mod:`vsa_gym.identify.library`): what
-:class:`vsa_gym.identify.adapters.DriveAdapter` may name, with bounds scaled to the record (``F_ref``: the peak
+:class:`vsa_gym.devices.drive.adapter.DriveAdapter` may name, with bounds scaled to the record (``F_ref``: the peak
 nominal drive force, ``v_ref``: the peak speed, ``x_ref``: the position spread, all of the nominal replay) and the
-magnitudes the synthetic drive records plant (:mod:`vsa_gym.identify.synthetic`).  The equations are the drive
-model's (:mod:`vsa_gym.identify.drive`, parameter mapping in ``DriveAdapter.param_matrix``).
+magnitudes the synthetic drive records plant (:mod:`vsa_gym.devices.drive.synthetic`).  The equations are the drive
+model's (:mod:`vsa_gym.devices.drive.model`, parameter mapping in ``DriveAdapter.param_matrix``).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 
 from vsa_gym.identify.library import Effect, Param
 
-SYNTHETIC = "synthetic_drive"  # the experiment of vsa_gym.identify.synthetic.make_drive_record
+SYNTHETIC = "synthetic_drive"  # the experiment of vsa_gym.devices.drive.synthetic.make_drive_record
 SOURCE = "a 2 kg axis driven at 10 N/V (synthetic records): friction of a few per cent of the drive force, " \
     "encoder-scale backlash, a 4-8 Hz transmission mode"
 

@@ -40,7 +40,7 @@ import numpy as np
 from vsa_gym.devices.vsaut2.effects import LIBRARY as VSAUT2_LIBRARY
 from vsa_gym.devices.vsaut2.model import N_STATES, STATE, SUBSTEPS_PER_MS, VsaUT2Model, rk4_rows
 from vsa_gym.devices.vsaut2.params import VsaUT2Params
-from vsa_gym.identify.adapters import Adapter, Theta, _get
+from vsa_gym.identify.adapters import Adapter, Theta, theta_column
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record
@@ -184,29 +184,29 @@ class Vsaut2Adapter(Adapter):
 
         out: dict[str, np.ndarray] = {}
         for b in self.base:
-            out[b.name] = _get(theta, f"base.{b.name}", n, b.absent).copy()
+            out[b.name] = theta_column(theta, f"base.{b.name}", n, b.absent).copy()
         J = self.joint
         c_key, I_key = ("c_o", "I_o") if J == "output" else ("c_ad", "I_ad")
         fc_key = "effects.F_c_o" if J == "output" else "effects.F_c_ad"
         if "coulomb_friction.F_c" in theta:
-            out[fc_key] = cur(fc_key) + _get(theta, "coulomb_friction.F_c", n)
+            out[fc_key] = cur(fc_key) + theta_column(theta, "coulomb_friction.F_c", n)
         if "stribeck_friction.F_s" in theta:
-            out["effects.F_s_o"] = cur("effects.F_s_o") + _get(theta, "stribeck_friction.F_s", n)
+            out["effects.F_s_o"] = cur("effects.F_s_o") + theta_column(theta, "stribeck_friction.F_s", n)
             if "stribeck_friction.w_s" in theta:
-                out["effects.w_s_o"] = _get(theta, "stribeck_friction.w_s", n).copy()
+                out["effects.w_s_o"] = theta_column(theta, "stribeck_friction.w_s", n).copy()
         if "viscous_friction.b" in theta:
-            out[c_key] = cur(c_key) + _get(theta, "viscous_friction.b", n)
+            out[c_key] = cur(c_key) + theta_column(theta, "viscous_friction.b", n)
         if "inertia_error.rel" in theta:
-            out[I_key] = cur(I_key) * (1.0 + _get(theta, "inertia_error.rel", n))
+            out[I_key] = cur(I_key) * (1.0 + theta_column(theta, "inertia_error.rel", n))
         if "spring_stiffness_drift.drift" in theta:
-            out["lever.k"] = cur("lever.k") * (1.0 + _get(theta, "spring_stiffness_drift.drift", n))
+            out["lever.k"] = cur("lever.k") * (1.0 + theta_column(theta, "spring_stiffness_drift.drift", n))
         if "backlash.width" in theta:
-            out["effects.b_belt"] = cur("effects.b_belt") + _get(theta, "backlash.width", n)
+            out["effects.b_belt"] = cur("effects.b_belt") + theta_column(theta, "backlash.width", n)
         if "transmission_compliance.compliance" in theta:
-            out["belt.C_belt"] = 1.0 / (1.0 / cur("belt.C_belt") + _get(theta, "transmission_compliance.compliance",
-                                                                          n))
+            compliance = theta_column(theta, "transmission_compliance.compliance", n)
+            out["belt.C_belt"] = 1.0 / (1.0 / cur("belt.C_belt") + compliance)
         if "gearbox_efficiency.loss" in theta:
-            out["frame_gearbox.eta_max"] = cur("frame_gearbox.eta_max") * (1.0 - _get(theta,
+            out["frame_gearbox.eta_max"] = cur("frame_gearbox.eta_max") * (1.0 - theta_column(theta,
                                                                                       "gearbox_efficiency.loss", n))
         return out
 
@@ -229,7 +229,7 @@ class Vsaut2Adapter(Adapter):
         model = VsaUT2Model(self.params)
         x0 = model.initial_state(n, q1=self.q1_0, q2=self.q2_0, r=self.r_0)
         D = model.d_rows
-        tau = self.tau[:, None] + _get(theta, "force_offset.F_0", n)[None, :]
+        tau = self.tau[:, None] + theta_column(theta, "force_offset.F_0", n)[None, :]
         m = self.params.frame_motor
         return _rollout(np.ascontiguousarray(x0[:, :N_STATES]), np.ascontiguousarray(self.u),
                         np.ascontiguousarray(tau), self.mode, np.ascontiguousarray(P), D, float(self.dt),

@@ -1,0 +1,396 @@
+"""The generic drive: a motor and a transmission on an inertia (or a motor force on a mass).
+
+One degree of freedom in translation (m, N, kg) or rotation (rad, N m, kg m^2),
+selected by ``DriveParams.motion``.  The drive force is the amplifier's::
+
+    F_m = k_u u                     (u: voltage of a current-mode amplifier, or a current, or a force)
+    tau_e dF/dt = k_u u - F         (optional first-order amplifier / electrical lag, tau_e > 0)
+    tau_e dF/dt = k_u u - b_emf v - F   (voltage drive with inductance: L / R = tau_e, back-EMF in the lag)
+
+``b_emf`` is the part of the viscous ``b`` that is the motor's back-EMF damping
+``k_t k_e n^2 / R``: in a voltage drive the back-EMF voltage drives the winding current, so it
+acts through the ``L / R`` lag, not instantly (with ``tau_e = 0`` it is simply part of ``b``).
+
+A DC motor in voltage mode with negligible inductance reduces to this form:
+:meth:`DriveParams.from_motor` builds ``k_u = k_t n / R`` and the back-EMF damping
+``k_t k_e n^2 / R`` (added to ``b``) from :class:`vsa_gym.physics.dc_motor.DCMotorParams`.
+
+Rigid transmission (``k_c = 0`` and ``backlash = 0``): ``m x'' = F_m - F_f(v) - F_0 - h + F_ext`` (efficiency below).
+With a compliant transmission or backlash the inertia splits into a motor side
+``frac_m m`` and a load side ``(1 - frac_m) m`` joined by the transmission force::
+
+    F_t = k dz(d) + c (v_m - v_l) dz'(d),   d = x_m - x_l,   g = backlash / 2
+    dz(d) = d - (sqrt((d + g)^2 + e^2) - sqrt((d - g)^2 + e^2)) / 2,   e = 0.05 g
+
+``dz`` is a dead zone of total width ``backlash`` whose corners are rounded over ``e``
+(``dz = d`` without backlash).  A contact across the gap is one-sided: the teeth push, never
+pull, so where the damping term of a separating contact would reverse the force, ``F_t = 0``.
+With a compliance (``k_c > 0``): ``k = k_c``, ``c = c_c``.
+With backlash alone the teeth meet through a stiff, well damped contact that is not a
+free parameter, so that backlash adds only the gap: ``k = k_contact`` (default: a
+contact mode of :data:`F_CONTACT` = 50 Hz on the reduced mass ``m_r = frac_m (1 - frac_m) m``,
+``k = (2 pi 50 Hz)^2 m_r``) and ``c = 2 zeta m_r omega`` with :data:`ZETA_CONTACT` = 0.7.
+Load friction (:mod:`vsa_gym.physics.friction` forms)::
+
+    F_f(v) = (F_c + F_s exp(-(v/v_s)^2)) tanh(v / v_eps) + b v
+
+is the steady-state LuGre / Stribeck characteristic (``F_s`` is the static excess
+over Coulomb) with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`.
+With a stiction travel ``x_c > 0`` (a sidecar parameter; give it below the encoder's resolution)
+the friction sticks instead of creeping: a reset-integrator bristle ``z`` (Haessig & Friedland
+1991) with ``k_0 = (F_c + F_s) / x_c``::
+
+    dz/dt = v  while |z| < x_c or z v < 0,   else 0
+    F_f = clip(k_0 z, -g(v), g(v)) + 2 sqrt(k_0 m_l) dz/dt + b v,   g(v) = F_c + F_s exp(-(v/v_s)^2)
+
+so the load holds against any force below ``F_c + F_s`` (a critically damped spring of travel
+``x_c``) and slides with ``g(v)`` beyond.  With ``x_c = 0`` (the default) the tanh law above
+creeps at a speed of order ``v_eps`` under a force below the breakaway level.  ``h`` is a Dahl hysteresis force
+(``dh/dt = sigma_h (v - |v| h / F_h)``, presliding travel ``F_h / sigma_h``).
+
+Gearbox efficiency acts at the mesh, between the motor-side inertia ``m_m = frac_m m``
+(rotor and pinion, reflected) and the load side ``m_l = (1 - frac_m) m``, and depends on the
+direction of the mesh power: forward (the motor drives) the load receives ``eta F_mesh``,
+back-driven it receives ``F_mesh / eta_b``, where ``F_mesh = F_m - m_m x''`` is the motor force
+less the rotor's inertia force.  Rigid::
+
+    forward:     x'' = (eta F_m - L) / (m_l + eta m_m)          L = F_f + F_0 + h - F_ext
+    back-driven: x'' = (F_m / eta_b - L) / (m_l + m_m / eta_b)
+
+blended by the sign of ``F_mesh v`` (tanh over ``v_eps``).  With a compliant transmission the
+motor side feels the shaft force ``F_t / eta`` (forward) or ``F_t eta_b`` (back-driven).
+``eta_b = 0`` means ``eta_b = eta`` (the same efficiency both ways).
+
+Every effect parameter defaults to "absent" (0, or 1 for ``eta``), so the nominal
+drive is ``m x'' = k_u u - b v``.  The batched roll-out is compiled by numba: one
+row per candidate parameter set, which is what simulation-error least squares needs.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numba
+import numpy as np
+
+from vsa_gym.physics.dc_motor import DCMotorParams
+from vsa_gym.physics.parameters import ParameterSet, param
+
+PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
+                           "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b",
+                           "b_emf", "x_c")
+PIDX = {n: i for i, n in enumerate(PNAMES)}
+#: observables of the roll-out, in column order
+OBS: tuple[str, ...] = ("position", "velocity", "motor_position", "force", "controller_output")
+N_STATE = 7  # x_l, v_l, x_m, v_m, F (lagged drive force), h (hysteresis), z (friction bristle)
+F_CONTACT = 50.0  # Hz: default backlash contact mode on the reduced mass
+ZETA_CONTACT = 0.7  # damping ratio of the backlash contact
+E_CORNER = 0.05  # rounding of the dead-zone corners, as a share of the half gap g
+
+
+@dataclasses.dataclass(frozen=True)
+class DriveParams(ParameterSet):
+    """Parameters of the generic drive (units for translation; rotation: rad, N m, kg m^2)."""
+
+    m: float = param(1.0, symbol="m", unit="kg", source="record sidecar", tag="proposed", lower=0.0,
+                     strict_lower=True, doc="total moving mass / inertia at the load")
+    b: float = param(0.0, symbol="b", unit="N s/m", source="record sidecar", tag="proposed", lower=0.0,
+                     doc="viscous friction at the load")
+    k_u: float = param(1.0, symbol="k_u", unit="N/V", source="record sidecar", tag="proposed",
+                       doc="drive gain: force at the load per input unit")
+    tau_e: float = param(0.0, symbol="tau_e", unit="s", source="record sidecar", tag="proposed", lower=0.0,
+                         doc="amplifier / electrical lag (0: none)")
+    F_c: float = param(0.0, symbol="F_c", unit="N", source="effect", tag="proposed", lower=0.0,
+                       doc="Coulomb friction level")
+    F_s: float = param(0.0, symbol="F_s", unit="N", source="effect", tag="proposed", lower=0.0,
+                       doc="static friction excess over Coulomb (Stribeck)")
+    v_s: float = param(0.01, symbol="v_s", unit="m/s", source="effect", tag="proposed", lower=0.0,
+                       strict_lower=True, doc="Stribeck velocity")
+    v_eps: float = param(1e-3, symbol="v_eps", unit="m/s", source="regularisation", tag="numerics", lower=0.0,
+                         strict_lower=True, doc="tanh regularisation of sign(v)")
+    F_0: float = param(0.0, symbol="F_0", unit="N", source="effect", tag="proposed",
+                       doc="constant force offset (opposes +x)")
+    k_c: float = param(0.0, symbol="k_c", unit="N/m", source="effect", tag="proposed", lower=0.0,
+                       doc="transmission stiffness (0: rigid)")
+    c_c: float = param(0.0, symbol="c_c", unit="N s/m", source="effect", tag="proposed", lower=0.0,
+                       doc="transmission damping")
+    frac_m: float = param(0.5, symbol="m_m/m", unit="-", source="effect", tag="proposed", lower=0.0,
+                          strict_lower=True, upper=1.0, doc="motor-side share of the inertia (two-mass case)")
+    backlash: float = param(0.0, symbol="2 g", unit="m", source="effect", tag="proposed", lower=0.0,
+                            doc="total backlash width")
+    eta: float = param(1.0, symbol="eta", unit="-", source="effect", tag="proposed", lower=0.0,
+                       strict_lower=True, upper=1.0, doc="transmission efficiency")
+    F_h: float = param(0.0, symbol="F_h", unit="N", source="effect", tag="proposed", lower=0.0,
+                       doc="Dahl hysteresis loop half-height")
+    sigma_h: float = param(1e5, symbol="sigma_h", unit="N/m", source="effect", tag="proposed", lower=0.0,
+                           strict_lower=True, doc="Dahl hysteresis initial stiffness")
+    k_contact: float = param(0.0, symbol="k_contact", unit="N/m", source="numerics", tag="numerics", lower=0.0,
+                             doc="contact stiffness when backlash is present and k_c = 0 (0: a 50 Hz mode on the "
+                                 "reduced mass)")
+    b_emf: float = param(0.0, symbol="b_emf", unit="N s/m", source="record sidecar", tag="proposed", lower=0.0,
+                         doc="the part of b that is a voltage-driven motor's back-EMF (k_t k_e n^2 / R): with a "
+                             "lag tau_e = L / R it acts through the winding, tau_e dF/dt = k_u u - b_emf v - F")
+    x_c: float = param(0.0, symbol="x_c", unit="m", source="numerics", tag="numerics", lower=0.0,
+                       doc="stiction travel of the friction bristle (reset integrator); 0: tanh regularisation over "
+                           "v_eps. Below the sensor's resolution, so that stuck friction holds without creeping")
+    eta_b: float = param(0.0, symbol="eta_b", unit="-", source="effect", tag="proposed", lower=0.0, upper=1.0,
+                         doc="back-driven transmission efficiency (load drives the motor); 0: the same as eta")
+
+    @classmethod
+    def from_motor(cls, motor: DCMotorParams, ratio: float, m_load: float, b_load: float = 0.0,
+                   **kw: float) -> DriveParams:
+        """A voltage-driven DC motor (inductance neglected) through a transmission of ``ratio`` motor rad per
+        load unit: ``k_u = k_t ratio / R``, ``b = b_load + (b_m + k_t k_e / R) ratio^2``, ``m = m_load + J ratio^2``."""
+        k_u = motor.k_t * ratio / motor.R
+        b = b_load + (motor.b + motor.k_t * motor.k_e / motor.R) * ratio**2
+        return cls(m=m_load + motor.J * ratio**2, b=b, k_u=k_u, **kw)
+
+    def vector(self, n: int) -> np.ndarray:
+        """Flat ``(n, len(PNAMES))`` array for the compiled kernel."""
+        out = np.empty((n, len(PNAMES)))
+        for i, name in enumerate(PNAMES):
+            out[:, i] = np.broadcast_to(np.asarray(getattr(self, name), dtype=np.float64), (n,))
+        return out
+
+
+@numba.njit(cache=True)
+def _contact(P: np.ndarray) -> tuple[float, float]:
+    """Stiffness and damping of the transmission: ``(k_c, c_c)`` if compliant, else the backlash contact's."""
+    if P[9] > 0.0:
+        return P[9], P[10]
+    m_r = P[11] * (1.0 - P[11]) * P[0]
+    k = P[16] if P[16] > 0.0 else (2.0 * np.pi * F_CONTACT) ** 2 * m_r
+    c = P[10] if P[10] > 0.0 else 2.0 * ZETA_CONTACT * np.sqrt(k * m_r)
+    return k, c
+
+
+@numba.njit(cache=True)
+def _tforce(P: np.ndarray, d: float, dv: float) -> float:
+    """Transmission force ``k dz(d) + c dv dz'(d)`` (N) at deflection ``d`` and deflection rate ``dv``."""
+    k, c = _contact(P)
+    g = 0.5 * P[12]
+    if g > 0.0:
+        e2 = (E_CORNER * g) ** 2
+        r1 = np.sqrt((d + g) ** 2 + e2)
+        r2 = np.sqrt((d - g) ** 2 + e2)
+        dz = d - 0.5 * (r1 - r2)
+        ddz = 1.0 - 0.5 * ((d + g) / r1 - (d - g) / r2)
+        f = k * dz + c * dv * ddz
+        # the teeth push, never pull: a separating contact whose damping would pull carries no force
+        if f * dz < 0.0:
+            return 0.0
+        return f
+    return k * d + c * dv
+
+
+@numba.njit(cache=True)
+def _forward(power: float, scale: float) -> float:
+    """Share of forward operation (1: the motor drives the load, 0: back-driven) from the mesh power."""
+    return 0.5 * (1.0 + np.tanh(power / (scale + 1e-12)))
+
+
+@numba.njit(cache=True)
+def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, out: np.ndarray) -> None:
+    m, b, k_u, tau_e = P[0], P[1], P[2], P[3]
+    F_c, F_s, v_s, v_eps, F_0 = P[4], P[5], P[6], P[7], P[8]
+    frac, eta, F_h, sig = P[11], P[13], P[14], P[15]
+    xl, vl, xm, vm, F, h, z = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
+    b_emf = P[18] if tau_e > 0.0 else 0.0  # back-EMF through the winding's lag (voltage drive)
+    if tau_e > 0.0:
+        Fm = F
+        out[4] = (k_u * u - b_emf * (vm if two_mass else vl) - F) / tau_e
+    else:
+        Fm = k_u * u
+        out[4] = 0.0
+    b = b - b_emf
+    eta_b = P[17] if P[17] > 0.0 else eta
+    mm = frac * m
+    ml = (1.0 - frac) * m
+    g_v = F_c + F_s * np.exp(-(vl / v_s) ** 2)
+    x_c = P[19]
+    if x_c > 0.0 and F_c + F_s > 0.0:
+        # reset-integrator bristle: a stiff spring while stuck (|z| < x_c), the sliding law g(v) beyond
+        k0 = (F_c + F_s) / x_c
+        dz = vl if (abs(z) < x_c or z * vl < 0.0) else 0.0
+        Ff = min(max(k0 * z, -g_v), g_v) + 2.0 * np.sqrt(k0 * (ml if two_mass else m)) * dz + b * vl
+        out[6] = dz
+    else:
+        Ff = g_v * np.tanh(vl / v_eps) + b * vl
+        out[6] = 0.0
+    if F_h > 0.0:
+        out[5] = sig * (vl - abs(vl) * h / F_h)
+    else:
+        out[5] = 0.0
+    load = Ff + F_0 + h - fext
+    if two_mass:
+        Ft = _tforce(P, xm - xl, vm - vl)
+        if eta < 1.0 or eta_b < 1.0:  # the shaft force seen by the motor side of the mesh
+            w = _forward(Ft * vm, abs(Ft) * v_eps)
+            Ft = Ft * (w / eta + (1.0 - w) * eta_b)
+        out[0] = vl
+        out[1] = (Ft - load) / ml if ml > 0.0 else 0.0
+        out[2] = vm
+        out[3] = (Fm - Ft) / mm
+    else:
+        if eta < 1.0 or eta_b < 1.0:
+            # the mesh passes the motor force less the rotor-side inertia force: forward eta (F_m - m_m a),
+            # back-driven (F_m - m_m a) / eta_b; the direction is that of the mesh power
+            a_f = (eta * Fm - load) / (ml + eta * mm)
+            a_b = (Fm / eta_b - load) / (ml + mm / eta_b)
+            Fmesh = Fm - mm * a_f
+            w = _forward(Fmesh * vl, abs(Fmesh) * v_eps)
+            a = w * a_f + (1.0 - w) * a_b
+        else:
+            a = (Fm - load) / m
+        out[0] = vl
+        out[1] = a
+        out[2] = vl
+        out[3] = a
+
+
+@numba.njit(cache=True)
+def _transmitted(P: np.ndarray, s: np.ndarray, u: float, two_mass: bool) -> float:
+    """Force the drive delivers to the load (N), for the ``force`` observable."""
+    if two_mass:
+        return _tforce(P, s[2] - s[0], s[3] - s[1])
+    return s[4] if P[3] > 0.0 else P[2] * u
+
+
+@numba.njit(cache=True)
+def _sensed(xs: np.ndarray, k: int, dt: float, gain: float, offset: float, delay: float, bias: float) -> float:
+    """The loop's position sensor at sample ``k``: ``(1 + gain) x(t_k - delay) + offset + bias`` from the
+    sampled positions ``xs[:k + 1]`` (linear interpolation, held at the first sample before the start)."""
+    if delay <= 0.0:
+        x = xs[k]
+    else:
+        tau = k - delay / dt
+        if tau <= 0.0:
+            x = xs[0]
+        else:
+            j = int(np.floor(tau))
+            if j >= k:
+                x = xs[k]
+            else:
+                f = tau - j
+                x = (1.0 - f) * xs[j] + f * xs[j + 1]
+    return (1.0 + gain) * x + offset + bias
+
+
+@numba.njit(cache=True)
+def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarray, ref: np.ndarray,
+                    ff: np.ndarray, ctrl: np.ndarray, sens: np.ndarray, dt: float, n_sub: int) -> np.ndarray:
+    """Roll out ``n`` drives over ``T`` samples; returns observables ``(T, n, len(OBS))`` at the sample times.
+
+    ``ctrl = [mode, kp, kv, sat, at_motor, bias]``: mode 0 replays ``u`` open loop; mode 1 is the EMPS
+    cascade ``u_k = clip(kp kv (ref_k - q_k) - kv (q_k - q_{k-2}) / (2 dt), +-sat) + ff_k`` on the
+    loop's sensor ``q_k = (1 + gain) x(t_k - delay) + offset + bias``, where ``x`` is the motor
+    position (``at_motor = 1``) or the load's, ``bias`` the sensor's known mean error (a floor
+    quantiser's -resolution/2) and ``sens[i] = [gain, offset, delay]`` row ``i``'s sensor terms.
+    """
+    n = P.shape[0]
+    T = u.shape[0]
+    y = np.empty((T, n, 5))
+    h = dt / n_sub
+    k1 = np.empty(N_STATE)
+    k2 = np.empty(N_STATE)
+    k3 = np.empty(N_STATE)
+    k4 = np.empty(N_STATE)
+    tmp = np.empty(N_STATE)
+    xs = np.empty(T)
+    ix = 2 if ctrl[4] == 1.0 else 0
+    for i in range(n):
+        Pi = P[i]
+        two_mass = Pi[9] > 0.0 or Pi[12] > 0.0
+        s = x0[i].copy()
+        q1 = 0.0
+        q2 = 0.0
+        for k in range(T):
+            if ctrl[0] == 1.0:
+                xs[k] = s[ix]
+                q = _sensed(xs, k, dt, sens[i, 0], sens[i, 1], sens[i, 2], ctrl[5])
+                if k == 0:
+                    q1 = q
+                    q2 = q
+                dq = (q - q2) / (2.0 * dt)
+                uk = ctrl[1] * ctrl[2] * (ref[k] - q) - ctrl[2] * dq
+                uk = min(max(uk, -ctrl[3]), ctrl[3]) + ff[k]
+                q2 = q1
+                q1 = q
+            else:
+                uk = u[k]
+            y[k, i, 0] = s[0]
+            y[k, i, 1] = s[1]
+            y[k, i, 2] = s[2]
+            y[k, i, 3] = _transmitted(Pi, s, uk, two_mass)
+            y[k, i, 4] = uk
+            fk = fext[k]
+            for _ in range(n_sub):
+                _rhs(Pi, s, uk, fk, two_mass, k1)
+                for j in range(N_STATE):
+                    tmp[j] = s[j] + 0.5 * h * k1[j]
+                _rhs(Pi, tmp, uk, fk, two_mass, k2)
+                for j in range(N_STATE):
+                    tmp[j] = s[j] + 0.5 * h * k2[j]
+                _rhs(Pi, tmp, uk, fk, two_mass, k3)
+                for j in range(N_STATE):
+                    tmp[j] = s[j] + h * k3[j]
+                _rhs(Pi, tmp, uk, fk, two_mass, k4)
+                for j in range(N_STATE):
+                    s[j] = s[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+    return y
+
+
+def contact_stiffness(P: np.ndarray) -> np.ndarray:
+    """Stiffness (N/m) of the backlash contact of each row of ``P`` when no compliance ``k_c`` is given:
+    ``k_contact``, or by default ``(2 pi F_CONTACT)^2 m_r`` with ``m_r = frac_m (1 - frac_m) m``."""
+    P = np.atleast_2d(P)
+    m_r = P[:, PIDX["frac_m"]] * (1 - P[:, PIDX["frac_m"]]) * P[:, PIDX["m"]]
+    return np.where(P[:, PIDX["k_contact"]] > 0, P[:, PIDX["k_contact"]], (2 * np.pi * F_CONTACT) ** 2 * m_r)
+
+
+def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
+    """RK4 substeps that keep ``h |lambda| < 1.5`` for the fastest mode of every row."""
+    m = P[:, PIDX["m"]]
+    frac = P[:, PIDX["frac_m"]]
+    m_load = m * np.where((P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0), 1 - frac + 1e-9, 1.0)
+    F_st = P[:, PIDX["F_c"]] + P[:, PIDX["F_s"]]
+    x_c = P[:, PIDX["x_c"]]
+    rates = [P[:, PIDX["b"]] / m,
+             np.where(x_c > 0, 3.0 * np.sqrt(F_st / np.maximum(x_c, 1e-300) / m_load),  # bristle: spring + damping
+                      F_st / (P[:, PIDX["v_eps"]] * m_load)),
+             np.where(P[:, PIDX["tau_e"]] > 0, 1.0 / np.maximum(P[:, PIDX["tau_e"]], 1e-12), 0.0),
+             P[:, PIDX["sigma_h"]] * vmax / np.maximum(P[:, PIDX["F_h"]], 1e-12) * (P[:, PIDX["F_h"]] > 0)]
+    two = (P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0)
+    comp = P[:, PIDX["k_c"]] > 0
+    k = np.where(comp, P[:, PIDX["k_c"]], contact_stiffness(P))
+    m_r = frac * (1 - frac) * m
+    c = np.where(comp | (P[:, PIDX["c_c"]] > 0), P[:, PIDX["c_c"]], 2 * ZETA_CONTACT * np.sqrt(k * m_r))
+    mmin = np.minimum(frac, 1 - frac) * m
+    rates.append(np.where(two, np.sqrt(k / mmin) + c / mmin, 0.0))
+    lam = float(np.max(np.concatenate([np.atleast_1d(r) for r in rates])))
+    return int(min(max(base, np.ceil(lam * dt / 1.5)), 400))
+
+
+def simulate(P: np.ndarray, u: np.ndarray, dt: float, *, x0: np.ndarray | None = None,
+             fext: np.ndarray | None = None, ref: np.ndarray | None = None, ff: np.ndarray | None = None,
+             controller: tuple[float, float, float] | None = None, n_sub: int | None = None,
+             sensor_at_motor: bool = True, sensor_bias: float = 0.0, sensor: np.ndarray | None = None) -> np.ndarray:
+    """Batched roll-out (see :func:`simulate_kernel`); ``P`` is ``(n, len(PNAMES))``, ``u`` is ``(T,)``.
+
+    With a ``controller`` ``(kp, kv, saturation)`` the loop reads the position sensor at the motor
+    (``sensor_at_motor``) or at the load, with the known ``sensor_bias`` and each row's sensor terms
+    ``sensor (n, 3) = [gain, offset, delay]`` (default: none)."""
+    P = np.ascontiguousarray(np.atleast_2d(P), dtype=np.float64)
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    T, n = u.shape[0], P.shape[0]
+    z = np.zeros(T)
+    x0 = np.zeros((n, N_STATE)) if x0 is None else np.ascontiguousarray(np.broadcast_to(x0, (n, N_STATE)),
+                                                                         dtype=np.float64)
+    ctrl = (np.zeros(6) if controller is None
+            else np.array([1.0, *controller, 1.0 if sensor_at_motor else 0.0, float(sensor_bias)]))
+    sens = (np.zeros((n, 3)) if sensor is None
+            else np.ascontiguousarray(np.broadcast_to(sensor, (n, 3)), dtype=np.float64))
+    ns = substeps(P, dt) if n_sub is None else int(n_sub)
+    return simulate_kernel(P, x0.copy(), u, z if fext is None else np.ascontiguousarray(fext, dtype=np.float64),
+                           z if ref is None else np.ascontiguousarray(ref, dtype=np.float64),
+                           z if ff is None else np.ascontiguousarray(ff, dtype=np.float64), ctrl, sens, float(dt), ns)
