@@ -115,7 +115,7 @@ def read_hyperparams(algo: str, env_id: str, path: str | os.PathLike[str] | None
 _UNSUPPORTED = ("env_wrapper", "callback", "frame_stack", "monitor_kwargs")
 
 
-def _py(expr: str) -> Any:
+def eval_zoo_expr(expr: str) -> Any:
     """Evaluate an rl-zoo3 Python-expression string (``"dict(net_arch=[64, 64])"``) with ``nn`` in scope."""
     from torch import nn
 
@@ -148,7 +148,7 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
     out["vec_env_wrapper"] = hp.pop("vec_env_wrapper", None)
     norm = hp.pop("normalize", False)
     if isinstance(norm, str):
-        norm = _py(norm)
+        norm = eval_zoo_expr(norm)
     if norm is True:
         norm = {}
     if isinstance(norm, dict):
@@ -158,10 +158,10 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
     out["normalize"] = norm if isinstance(norm, dict) else None
     for key in ("policy_kwargs", "replay_buffer_kwargs"):
         if isinstance(hp.get(key), str):
-            hp[key] = _py(hp[key])
+            hp[key] = eval_zoo_expr(hp[key])
     env_kwargs = hp.pop("env_kwargs", None) or {}
     if isinstance(env_kwargs, str):
-        env_kwargs = _py(env_kwargs)
+        env_kwargs = eval_zoo_expr(env_kwargs)
     out["env_kwargs"] = dict(env_kwargs)
     noise_type = hp.pop("noise_type", None)
     noise_std = hp.pop("noise_std", None)

@@ -133,13 +133,13 @@ def load_agent(model_path: str | os.PathLike[str], algo: str | None = None,
 
 def training_env_kwargs(model_path: str | os.PathLike[str], env_id: str) -> dict[str, Any]:
     """``env_kwargs`` of the run's ``config.yml`` (empty when the model is not in a run directory)."""
-    from agents.common import _py
+    from agents.common import eval_zoo_expr
 
     p = Path(model_path)
     for cand in (p.parent / env_name(env_id) / "config.yml", p.parent / p.stem / "config.yml"):
         if cand.exists():
             kw = (yaml.safe_load(cand.read_text()) or {}).get("env_kwargs") or {}
-            return dict(_py(kw) if isinstance(kw, str) else kw)
+            return dict(eval_zoo_expr(kw) if isinstance(kw, str) else kw)
     return {}
 
 

@@ -72,7 +72,7 @@ def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, see
     evaluation environment (its arguments resolved from the run's ``config.yml``, ``eval_reward`` and
     ``eval_kwargs``, so ``eval_reward`` only matters where the run has reward-only arguments).
     """
-    from agents.common import _py
+    from agents.common import eval_zoo_expr
     from agents.evaluate import scoring_env_kwargs
 
     for d in reversed(run_dirs(log_folder, algo, env_id)):
@@ -88,7 +88,7 @@ def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, see
                 continue
             args = yaml.safe_load(args_file.read_text()) or {}
             kw = (yaml.safe_load(cfg_file.read_text()) or {}).get("env_kwargs") or {}
-            kw = dict(_py(kw) if isinstance(kw, str) else kw)
+            kw = dict(eval_zoo_expr(kw) if isinstance(kw, str) else kw)
             had = scoring_env_kwargs(env_id, kw, args.get("eval_reward", "training"), args.get("eval_kwargs"))[0]
             want = scoring_env_kwargs(env_id, kw, evaluation["eval_reward"], evaluation["eval_kwargs"])[0]
             if (args.get("eval_freq"), args.get("eval_episodes"), had) != (
@@ -216,10 +216,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--retrain", action="store_true", help="train even if a finished run exists")
     ap.add_argument("--json", default=None)
     a = ap.parse_args(argv)
-    from agents.train import _parse_params
+    from agents.train import parse_params
 
     trials = make_trials(a.envs, a.algos, a.seeds, timesteps=a.timesteps, log_folder=str(a.log_folder),
-                         params=_parse_params(a.params), hyperparams=a.hyperparams, episodes=a.episodes,
+                         params=parse_params(a.params), hyperparams=a.hyperparams, episodes=a.episodes,
                          save_freq=a.save_freq,
                          eval_freq=a.eval_freq, eval_episodes=a.eval_episodes, eval_kwargs=a.eval_kwargs,
                          select=a.select, retrain=a.retrain)

@@ -344,7 +344,7 @@ def with_residual(params: Mapping[str, Any], spec: str) -> dict[str, Any]:
     return out
 
 
-def _parse_params(items: Sequence[str]) -> dict[str, Any]:
+def parse_params(items: Sequence[str]) -> dict[str, Any]:
     out = {}
     for it in items:
         if ":" not in it:
@@ -384,7 +384,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--device", default="cpu")
     ap.add_argument("--verbose", type=int, default=0)
     a = ap.parse_args(argv)
-    params = _parse_params(a.params)
+    params = parse_params(a.params)
     if a.residual:
         params = with_residual(params, a.residual)
     info = train(a.env, a.algo, a.timesteps, a.seed, a.log_folder, a.resume, a.hyperparams, params,

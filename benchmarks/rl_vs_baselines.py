@@ -214,11 +214,11 @@ vsaUT-II position task charges that by default.  Training keeps the environments
 
 def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = None) -> dict[str, Any]:
     """Reward-only ``env_kwargs`` (other reward weights than the environment's) in the hyperparameters."""
-    from agents.common import _py, read_hyperparams
+    from agents.common import eval_zoo_expr, read_hyperparams
     from agents.evaluate import split_reward_kwargs
 
     kw = read_hyperparams(algo, env_id, hyperparams).get("env_kwargs") or {}
-    return split_reward_kwargs(env_id, _py(kw) if isinstance(kw, str) else dict(kw))[1]
+    return split_reward_kwargs(env_id, eval_zoo_expr(kw) if isinstance(kw, str) else dict(kw))[1]
 
 
 def feature_note(algo: str, env_id: str, hyperparams: str | Path | None = None) -> str:
