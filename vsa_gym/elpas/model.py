@@ -40,29 +40,45 @@ State layout (columns of ``x``, shape ``(n, n_states)``): see the ``GAMMA`` ...
 balance ``E_el = dE_stored + E_res + E_fric + E_stop + E_damper + E_ext + E_out``
 (:func:`stored_energy`).  ``E_fric`` includes the small elastic bristle energy.
 
-The column constants live in :mod:`~vsa_gym.elpas.layout`, the equations (written once as point functions, and
-the numpy right-hand sides :func:`rhs_rig` / :func:`rhs_vehicle`) in :mod:`~vsa_gym.elpas.equations`, the
-parameters packed for the compiled code in :mod:`~vsa_gym.elpas.packing`; they are re-exported here.
+This module is the model's public face: the steps, initial states and observables.  The parts live in
+:mod:`~vsa_gym.elpas.layout` (column constants), :mod:`~vsa_gym.elpas.equations` (the equations, written once as
+point functions, and the numpy right-hand sides :func:`rhs_rig` / :func:`rhs_vehicle`),
+:mod:`~vsa_gym.elpas.packing` (the parameters for the compiled code) and :mod:`~vsa_gym.elpas.integrator` (the
+integrator, written once as compiled row functions); they are re-exported here.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numba
 import numpy as np
-from numba.extending import register_jitable
 
 from vsa_gym.elpas.cone import check_angles, effective_stiffness_unchecked, spring_unchecked
 from vsa_gym.elpas.equations import (
     end_stop,
-    rhs_q_row,
+    extension_ports,
+    omega_of_q,
+    q_constants,
+    q_of_omega,
     rhs_rig,
     rhs_vehicle,
     tyre_force_point,
     tyre_force_unchecked,
 )
 from vsa_gym.elpas.extensions import check_extensions, total_states
+from vsa_gym.elpas.integrator import (
+    N_PW_ROWS,
+    N_STAGES,
+    REVERSAL_RATE_H,
+    REVERSAL_REFINE,
+    advance_row,
+    advance_rows,
+    integrate_row,
+    reversal_rows,
+    stage_rows,
+    substep_count,
+)
 from vsa_gym.elpas.layout import (
     ALPHA,
     ALPHA_DOT,
@@ -94,6 +110,7 @@ from vsa_gym.elpas.layout import (
 )
 from vsa_gym.elpas.packing import (
     N_PARAM_COLS,
+    ElpasT,
     matrix_row_params,
     params_matrix,
     params_tuple,
@@ -102,15 +119,30 @@ from vsa_gym.elpas.packing import (
 )
 from vsa_gym.elpas.params import GRAVITY, ElpasParams
 from vsa_gym.physics.dc_motor import applied_voltage
-from vsa_gym.physics.friction import bristle_derivative, bristle_rate, lugre_moment
-from vsa_gym.physics.integrate import etdrk4_weights, exponential_rk4
+from vsa_gym.physics.friction import bristle_derivative, lugre_moment
 from vsa_gym.physics.parameters import as_batch
 
-# the names other modules import from here, until they import the public ones
+# the names other modules imported from here before the split (issue 17), until they import the public ones
+_advance_row = advance_row
 _matrix_row_params = matrix_row_params
 _params_matrix = params_matrix
-_params_tuple = params_tuple
 _tyre_force_point = tyre_force_point
+_n_sub = substep_count
+_params_tuple = params_tuple
+
+
+@numba.njit(cache=True)
+def _step_compiled(x: np.ndarray, rin: np.ndarray, p: ElpasT, dt: float, n_sub: int,
+                   vehicle: bool) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~vsa_gym.elpas.integrator.integrate_row` for every row (no refinement); ``p`` the named tuple of
+    :func:`~vsa_gym.elpas.packing.params_tuple`.  Kept for the identification adapter's current loop until it
+    runs the eLPAS package's own."""
+    n = x.shape[0]
+    x_new = np.empty_like(x)
+    energy = np.empty((n, N_POWER))
+    for i in range(n):
+        integrate_row(x[i], rin[i, 0], rin[i, 1], row_params(p, i), dt, n_sub, vehicle, x_new[i], energy[i])
+    return x_new, energy
 
 
 # ----------------------------------------------------------------------------- stepping
@@ -118,171 +150,57 @@ def _check_state(name: str, x: np.ndarray, width: int) -> np.ndarray:
     return as_batch(name, x, width=width)
 
 
-def _n_sub(p: ElpasParams) -> int:
-    return int(round(float(p.numerics.n_sub)))
+def _integrate_with_extensions(p: ElpasParams, x: np.ndarray, rin: np.ndarray, extensions: Extensions,
+                               vehicle: bool, n_sub: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`~vsa_gym.elpas.integrator.integrate_row` for every row, with the extensions evaluated (in Python,
+    on columns) before each stage: the same compiled stages (:func:`~vsa_gym.elpas.integrator.stage_rows`).
 
-
-REVERSAL_REFINE = 4
-"""Substep refinement for the rows whose motor speed changes sign within a control step."""
-REVERSAL_RATE_H = 0.01
-"""Refine a reversal only if the bristle rate times the substep exceeds this (slow creep needs no refinement)."""
-
-RhsFn = Callable[[ElpasParams, np.ndarray, np.ndarray, Extensions], tuple[np.ndarray, np.ndarray]]
-
-
-def _integrate(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarray,
-               extensions: Extensions, n_sub: int) -> tuple[np.ndarray, np.ndarray]:
-    """One control step with the LuGre-aware integrator (numpy; any extensions).
-
-    The bristle damping ``s1 dz/dt`` couples the stiff bristle mode into the
-    speed: along that mode ``q = J_r omega + N s1 z`` stays constant.  The step
-    therefore integrates ``(q, z)`` instead of ``(omega, z)`` -- ``dq/dt`` contains
-    no ``dz/dt`` -- and treats the remaining stiff decay ``-lambda z`` of the
-    bristle exactly (:func:`exponential_rk4`, ``lambda = |omega_m| s0 / g``
-    frozen per substep).  Stable for any speed; accuracy is checked against Radau.
+    ``x`` ``(n, n_base + n_ext)``; ``rin`` ``(n, 2)``: voltage, dalpha/dt (rig) or dy_r/dt (vehicle).
+    Extension states are integrated by the RK4 part of the scheme (they are not stiff).
     """
-    c = p.drive.N * p.friction.s1
-    J = p.drive.J_r
-
-    def rhs_q(yy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        xx = yy.copy()
-        xx[:, OMEGA] = (yy[:, OMEGA] - c * yy[:, BRISTLE]) / J
-        dx, power = rhs_fn(p, xx, rate_inputs, extensions)
-        dx[:, OMEGA] = J * dx[:, OMEGA] + c * dx[:, BRISTLE]
-        return dx, power
-
-    def rates(yy: np.ndarray) -> np.ndarray:
-        w = (yy[:, OMEGA] - c * yy[:, BRISTLE]) / J
-        return bristle_rate(p.friction, p.drive.N * w)[:, None]
-
-    y = x.copy()
-    y[:, OMEGA] = J * x[:, OMEGA] + c * x[:, BRISTLE]
-    y_new, energy = exponential_rk4(rhs_q, y, float(p.numerics.dt), n_sub, (BRISTLE,), rates)
-    x_new = y_new
-    x_new[:, OMEGA] = (y_new[:, OMEGA] - c * y_new[:, BRISTLE]) / J
-    return x_new, energy
-
-
-@register_jitable
-def _integrate_row(x: np.ndarray, u: float, rate: float, p: ElpasParams, dt: float, n_sub: int, vehicle: bool,
-                   x_out: np.ndarray, e_out: np.ndarray) -> None:
-    """:func:`_integrate` for one row (no extensions), compiled: the same ``(q, z)`` ETDRK4, element by element.
-
-    ``x``/``x_out`` ``(n_states,)``, ``e_out`` ``(N_POWER,)`` (overwritten); ``p`` holds this row's
-    scalars (:func:`~vsa_gym.elpas.packing.row_params`); ``u`` the held voltage, ``rate`` dalpha/dt (rig) or
-    dy_r/dt (vehicle).
-    """
-    nx = x.shape[0]
-    c = p.drive.N * p.friction.s1
-    J = p.drive.J_r
-    h = dt / n_sub
-    work = np.empty((8, nx))  # one allocation for the stages (small arrays cost more to allocate than to fill)
-    y, k1, k2, k3, k4, ya, yb, yc = work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7]
-    pws = np.empty((4, N_POWER))
-    p1, p2, p3, p4 = pws[0], pws[1], pws[2], pws[3]
-    for j in range(nx):
-        y[j] = x[j]
-    y[OMEGA] = J * x[OMEGA] + c * x[BRISTLE]
-    for j in range(N_POWER):
-        e_out[j] = 0.0
-    for _ in range(n_sub):
-        lam = bristle_rate(p.friction, p.drive.N * (y[OMEGA] - c * y[BRISTLE]) / J)
-        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)  # the numpy step's weights (integrate.py)
-        zs = y[BRISTLE]
-
-        rhs_q_row(y, u, rate, p, vehicle, c, J, 0.0, 0.0, k1, p1)
-        n1 = k1[BRISTLE] + lam * zs
-        for j in range(nx):
-            ya[j] = y[j] + 0.5 * h * k1[j]
-        ya[BRISTLE] = e_half * zs + w_half * n1
-        rhs_q_row(ya, u, rate, p, vehicle, c, J, 0.0, 0.0, k2, p2)
-        n2 = k2[BRISTLE] + lam * ya[BRISTLE]
-        for j in range(nx):
-            yb[j] = y[j] + 0.5 * h * k2[j]
-        yb[BRISTLE] = e_half * zs + w_half * n2
-        rhs_q_row(yb, u, rate, p, vehicle, c, J, 0.0, 0.0, k3, p3)
-        n3 = k3[BRISTLE] + lam * yb[BRISTLE]
-        for j in range(nx):
-            yc[j] = y[j] + h * k3[j]
-        yc[BRISTLE] = e_half * ya[BRISTLE] + w_half * (2.0 * n3 - n1)
-        rhs_q_row(yc, u, rate, p, vehicle, c, J, 0.0, 0.0, k4, p4)
-        n4 = k4[BRISTLE] + lam * yc[BRISTLE]
-        for j in range(nx):
-            y[j] = y[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-        y[BRISTLE] = e_full * zs + h * (f_u * n1 + f_ab * (n2 + n3) + f_c * n4)
-        for j in range(N_POWER):
-            e_out[j] += (h / 6.0) * (p1[j] + 2.0 * p2[j] + 2.0 * p3[j] + p4[j])
-    for j in range(nx):
-        x_out[j] = y[j]
-    x_out[OMEGA] = (y[OMEGA] - c * y[BRISTLE]) / J
-
-
-@register_jitable
-def _advance_row(x: np.ndarray, u: float, rate: float, p: ElpasParams, dt: float, n_sub: int, vehicle: bool,
-                 x_out: np.ndarray, e_out: np.ndarray) -> None:
-    """:func:`_advance` for one row, compiled: :func:`_integrate_row`, redone with ``REVERSAL_REFINE`` times
-    more substeps when the speed reverses through a fast bristle rate (the test of :func:`_reversals_compiled`)."""
-    _integrate_row(x, u, rate, p, dt, n_sub, vehicle, x_out, e_out)
-    h = dt / n_sub
-    w0, w1 = x[OMEGA], x_out[OMEGA]
-    fast = max(bristle_rate(p.friction, p.drive.N * w0), bristle_rate(p.friction, p.drive.N * w1)) * h \
-        > REVERSAL_RATE_H
-    if np.sign(w0) != np.sign(w1) and fast:
-        _integrate_row(x, u, rate, p, dt, n_sub * REVERSAL_REFINE, vehicle, x_out, e_out)
-
-
-@numba.njit(cache=True)
-def _step_compiled(x: np.ndarray, rin: np.ndarray, p: ElpasParams, dt: float, n_sub: int,
-                   vehicle: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_integrate` compiled (no extensions), row by row (:func:`_integrate_row`); ``p`` the named tuple
-    of :func:`params_tuple`."""
-    n = x.shape[0]
-    x_new = np.empty_like(x)
-    energy = np.empty((n, N_POWER))
-    for i in range(n):
-        _integrate_row(x[i], rin[i, 0], rin[i, 1], row_params(p, i), dt, n_sub, vehicle, x_new[i], energy[i])
-    return x_new, energy
-
-@numba.njit(cache=True)
-def _advance_compiled(x: np.ndarray, rin: np.ndarray, P: np.ndarray, dt: float, n_sub: int,
-                      vehicle: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_advance` compiled (no extensions): :func:`_advance_row` for every row, in one call
-    (``P``: :func:`~vsa_gym.elpas.packing.params_matrix`)."""
-    n = x.shape[0]
-    x_new = np.empty_like(x)
-    energy = np.empty((n, N_POWER))
-    for i in range(n):
-        _advance_row(x[i], rin[i, 0], rin[i, 1], matrix_row_params(P, i), dt, n_sub, vehicle, x_new[i],
-                     energy[i])
-    return x_new, energy
-
-
-def _advance(p: ElpasParams, rhs_fn: RhsFn, x: np.ndarray, rate_inputs: np.ndarray,
-             extensions: Extensions, compiled: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_integrate` with ``n_sub`` substeps; rows whose speed reverses are redone finer.
-
-    ``|omega_m|`` in the bristle equation has a kink at zero speed; a substep
-    containing the reversal loses two orders of accuracy.  Those rows (sign
-    change of ``omega`` over the step, with ``lambda h > REVERSAL_RATE_H`` at
-    either end) are recomputed with ``REVERSAL_REFINE`` times more substeps,
-    which keeps the Radau error below 1e-3 at little cost.
-    """
-    n_sub = _n_sub(p)
-    if compiled and not extensions:  # the whole step, reversals included, in one compiled call
-        return _advance_compiled(np.ascontiguousarray(x), np.ascontiguousarray(rate_inputs),
-                                 params_matrix(p, x.shape[0]), float(p.numerics.dt), n_sub, rhs_fn is rhs_vehicle)
-    x_new, energy = _integrate(p, rhs_fn, x, rate_inputs, extensions, n_sub)
-    # only reversals through bristle rates that matter within a substep (not presliding creep)
+    n, nx = x.shape
+    n_base = N_VEHICLE if vehicle else N_RIG
+    P = params_matrix(p, n)
+    c, J = q_constants(p)
     h = float(p.numerics.dt) / n_sub
-    fast = np.maximum(bristle_rate(p.friction, p.drive.N * x[:, OMEGA]),
-                      bristle_rate(p.friction, p.drive.N * x_new[:, OMEGA])) * h > REVERSAL_RATE_H
-    rev = (np.sign(x[:, OMEGA]) != np.sign(x_new[:, OMEGA])) & fast
+    Y = np.empty((n, N_STAGES, nx))
+    K = np.empty((n, N_STAGES, nx))
+    PW = np.empty((n, N_PW_ROWS, N_POWER))
+    energy = np.zeros((n, N_POWER))
+    Y[:, 0] = x
+    Y[:, 0, OMEGA] = q_of_omega(x[:, OMEGA], x[:, BRISTLE], c, J)
+    xs = np.empty((n, nx))
+    for _ in range(n_sub):
+        for s in range(N_STAGES):
+            xs[:] = Y[:, s]
+            xs[:, OMEGA] = omega_of_q(Y[:, s, OMEGA], Y[:, s, BRISTLE], c, J)
+            alpha_dot = xs[:, ALPHA_DOT] if vehicle else rin[:, IN_ALPHA]
+            ports, ext_dx = extension_ports(p, xs, alpha_dot, extensions, n_base)
+            K[:, s, n_base:] = ext_dx  # the stage evaluates the base states' derivatives
+            stage_rows(s, Y, K, PW, rin, P, vehicle, ports, h, energy)
+    x_new = Y[:, 0].copy()
+    x_new[:, OMEGA] = omega_of_q(Y[:, 0, OMEGA], Y[:, 0, BRISTLE], c, J)
+    return x_new, energy
+
+
+def _advance(p: ElpasParams, x: np.ndarray, rin: np.ndarray, extensions: Extensions,
+             vehicle: bool) -> tuple[np.ndarray, np.ndarray]:
+    """One control step of every row: :func:`~vsa_gym.elpas.integrator.advance_rows` (compiled), or with
+    extensions :func:`_integrate_with_extensions` and the rows that
+    :func:`~vsa_gym.elpas.integrator.needs_refinement` redone with ``REVERSAL_REFINE`` times more substeps."""
+    n_sub = substep_count(p)
+    dt = float(p.numerics.dt)
+    if not extensions:  # the whole step, reversals included, in one compiled call
+        return advance_rows(np.ascontiguousarray(x), np.ascontiguousarray(rin), params_matrix(p, x.shape[0]), dt,
+                            n_sub, vehicle)
+    x = np.ascontiguousarray(x)
+    x_new, energy = _integrate_with_extensions(p, x, rin, extensions, vehicle, n_sub)
+    rev = reversal_rows(x, x_new, params_matrix(p, x.shape[0]), dt / n_sub)
     if np.any(rev):
         rows = np.flatnonzero(rev)
         p_rows = take_rows(p, rows) if p.batch_size is not None else p
-        x_r, e_r = _integrate(p_rows, rhs_fn, x[rows], rate_inputs[rows], extensions, n_sub * REVERSAL_REFINE)
-        x_new[rows] = x_r
-        energy[rows] = e_r
+        x_new[rows], energy[rows] = _integrate_with_extensions(p_rows, x[rows], rin[rows], extensions, vehicle,
+                                                               n_sub * REVERSAL_REFINE)
     return x_new, energy
 
 
@@ -294,12 +212,11 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
         x: state ``(n, N_RIG + n_ext)``.
         inputs: ``(n, 2)``: voltage (V, held), ``alpha`` at the end of the step
             (rad, within ``+-alpha_max``; alpha moves linearly over the step).
-        extensions: model extensions (numpy path).
-        compiled: use the numba-compiled integrator when there are no extensions
-            (same equations and scheme; equal to the numpy path to round-off;
-            about 10x faster per step at n = 1).  The first call in a fresh
-            checkout compiles it once (30-100 s on this 2-core machine); numba then
-            caches it on disk for every batch size and parameter batching.
+        extensions: model extensions (evaluated in Python between the compiled stages).
+        compiled: accepted for compatibility and ignored: every step runs the compiled integrator
+            (:mod:`vsa_gym.elpas.integrator`).  The first call in a fresh checkout compiles it once
+            (30-100 s on a 2-core machine); numba then caches it on disk for every batch size and
+            parameter batching.
 
     Returns:
         ``(x_new, energy)``: new state and the energy of every power channel over
@@ -319,11 +236,12 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
 def _step_rig_valid(p: ElpasParams, x: np.ndarray, inputs: np.ndarray, extensions: Extensions = (),
                     compiled: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """:func:`step_rig` without its input checks, for callers whose inputs are valid by construction
-    (the environments: float64 ``x`` and finite ``inputs`` ``(n, 2)``, alpha within its range)."""
+    (float64 ``x`` and finite ``inputs`` ``(n, 2)``, alpha within its range)."""
+    del compiled
     dt = float(p.numerics.dt)
     rates_in = inputs.copy()
     rates_in[:, IN_ALPHA] = (inputs[:, IN_ALPHA] - x[:, ALPHA]) / dt
-    x_new, energy = _advance(p, rhs_rig, x, rates_in, extensions, compiled)
+    x_new, energy = _advance(p, x, rates_in, extensions, False)
     x_new[:, ALPHA] = inputs[:, IN_ALPHA]
     return x_new, energy
 
@@ -351,10 +269,11 @@ def step_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
 def _step_vehicle_valid(p: ElpasParams, x: np.ndarray, inputs: np.ndarray, extensions: Extensions = (),
                         compiled: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """:func:`step_vehicle` without its input checks (as :func:`_step_rig_valid`); the result is still checked."""
+    del compiled
     dt = float(p.numerics.dt)
     rates_in = inputs.copy()
     rates_in[:, IN_ROAD] = (inputs[:, IN_ROAD] - x[:, Y_R]) / dt
-    x_new, energy = _advance(p, rhs_vehicle, x, rates_in, extensions, compiled)
+    x_new, energy = _advance(p, x, rates_in, extensions, True)
     x_new[:, Y_R] = inputs[:, IN_ROAD]
     if not np.all(np.isfinite(x_new)):
         raise ValueError("step_vehicle: the state became non-finite (check inputs and parameters)")
@@ -483,8 +402,9 @@ __all__ = [
     "ALPHA", "ALPHA_DOT", "BRISTLE", "CURRENT", "GAMMA", "GRAVITY", "IN_ALPHA", "IN_ROAD", "IN_VOLTAGE", "N_PARAM_COLS",
     "N_PORTS", "N_POWER", "N_RIG", "N_VEHICLE", "OMEGA", "POWER_NAMES", "P_DAMPER", "P_EL", "P_EXT", "P_FRIC", "P_OUT",
     "P_RES", "P_STOP", "REVERSAL_RATE_H", "REVERSAL_REFINE", "RIG_STATE_NAMES", "VEHICLE_STATE_NAMES", "V_S", "Y_R",
-    "Y_S", "Extensions", "actuator_force_of", "disturbance_moment_of", "electrical_power", "equilibrium_alpha",
-    "friction_moment", "initial_state_rig", "initial_state_vehicle", "matrix_row_params", "motor_speed",
-    "params_matrix", "params_tuple", "rhs_rig", "rhs_vehicle", "step_rig", "step_vehicle", "stored_energy",
-    "suspension_travel", "take_rows", "tyre_force", "tyre_force_point", "tyre_force_unchecked",
+    "Y_S", "Extensions", "actuator_force_of", "advance_row", "disturbance_moment_of", "electrical_power",
+    "equilibrium_alpha", "friction_moment", "initial_state_rig", "initial_state_vehicle", "matrix_row_params",
+    "motor_speed", "params_matrix", "params_tuple", "rhs_rig", "rhs_vehicle", "step_rig", "step_vehicle",
+    "stored_energy", "substep_count", "suspension_travel", "take_rows", "tyre_force", "tyre_force_point",
+    "tyre_force_unchecked",
 ]
