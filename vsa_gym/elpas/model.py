@@ -51,7 +51,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numba
 import numpy as np
 
 from vsa_gym.elpas.cone import check_angles, effective_stiffness_unchecked, spring_unchecked
@@ -74,7 +73,6 @@ from vsa_gym.elpas.integrator import (
     REVERSAL_REFINE,
     advance_row,
     advance_rows,
-    integrate_row,
     reversal_rows,
     stage_rows,
     substep_count,
@@ -108,15 +106,7 @@ from vsa_gym.elpas.layout import (
     Y_S,
     Extensions,
 )
-from vsa_gym.elpas.packing import (
-    N_PARAM_COLS,
-    ElpasT,
-    matrix_row_params,
-    params_matrix,
-    params_tuple,
-    row_params,
-    take_rows,
-)
+from vsa_gym.elpas.packing import N_PARAM_COLS, matrix_row_params, params_matrix, params_tuple, take_rows
 from vsa_gym.elpas.params import GRAVITY, ElpasParams
 from vsa_gym.physics.dc_motor import applied_voltage
 from vsa_gym.physics.friction import bristle_derivative, lugre_moment
@@ -128,21 +118,6 @@ _matrix_row_params = matrix_row_params
 _params_matrix = params_matrix
 _tyre_force_point = tyre_force_point
 _n_sub = substep_count
-_params_tuple = params_tuple
-
-
-@numba.njit(cache=True)
-def _step_compiled(x: np.ndarray, rin: np.ndarray, p: ElpasT, dt: float, n_sub: int,
-                   vehicle: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`~vsa_gym.elpas.integrator.integrate_row` for every row (no refinement); ``p`` the named tuple of
-    :func:`~vsa_gym.elpas.packing.params_tuple`.  Kept for the identification adapter's current loop until it
-    runs the eLPAS package's own."""
-    n = x.shape[0]
-    x_new = np.empty_like(x)
-    energy = np.empty((n, N_POWER))
-    for i in range(n):
-        integrate_row(x[i], rin[i, 0], rin[i, 1], row_params(p, i), dt, n_sub, vehicle, x_new[i], energy[i])
-    return x_new, energy
 
 
 # ----------------------------------------------------------------------------- stepping

@@ -99,17 +99,6 @@ N_PARAM_COLS = sum(len(cls._fields) for _, cls in PARAM_GROUPS)  # 33
 
 
 @register_jitable
-def row_params(p: ElpasT, i: int) -> ElpasT:
-    """Row ``i`` of the named tuple of :func:`params_tuple`, as scalars (for the per-row compiled step)."""
-    m, fr, dr, c, car = p.motor, p.friction, p.drive, p.cone, p.car
-    return ElpasT(MotorT(m.L[i], m.R[i], m.k_t[i], m.k_e[i], m.J[i], m.b[i], m.U_max[i], m.I_max[i]),
-                  FrictionT(fr.s0[i], fr.s1[i], fr.s2[i], fr.F_c[i], fr.F_s[i], fr.omega_s[i]),
-                  DriveT(dr.N[i], dr.J_r[i], dr.k_stop[i], dr.d_stop[i]),
-                  ConeT(c.a[i], c.l[i], c.h[i], c.r[i], c.C_a[i], c.F_s0[i], c.gamma_max[i], c.alpha_max[i]),
-                  CarT(car.m_s[i], car.m_u[i], car.k_t[i], car.c_p[i], car.J_w[i], car.k_bump[i], car.d_bump[i]))
-
-
-@register_jitable
 def matrix_row_params(P: np.ndarray, i: int) -> ElpasT:
     """Row ``i`` of :func:`params_matrix` as the scalar named tuple (columns in ``PARAM_GROUPS`` order)."""
     r = P[i]
