@@ -12,10 +12,10 @@ The sine and step force tests of the paper are closed-loop: the replay runs the
 ``gamma_ref(F_ref)``, lead-lag + clamped integrator; designed with the *nominal*
 parameters, as the real controller was) on the observation it would see (the
 motor-encoder ``gamma_hat``, the 12-bit ``alpha_hat``, ``force_ref``; unquantised unless
-``quantised_feedback``), and the
-environment's 10 kHz PI current loop (:class:`vsa_gym.envs.elpas_common.ElpasCurrentLoop`)
+``quantised_feedback``), and the environments' 10 kHz PI current loop
+(:func:`vsa_gym.elpas.current_loop.current_loop_rows`, gains :class:`~vsa_gym.elpas.current_loop.ElpasCurrentLoop`)
 between control steps, with ``alpha`` interpolated linearly.  Each 0.1 ms step is
-the compiled core of :func:`vsa_gym.elpas.model.step_rig` (``compiled=True``, the
+the compiled core of :func:`vsa_gym.elpas.model.step_rig` (:func:`vsa_gym.elpas.integrator.advance_row`: the
 same ETDRK4 and the same refinement of speed reversals), batched over the candidate
 parameter rows; one control step of all rows is one compiled call.
 
@@ -47,57 +47,27 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
-import numba
 import numpy as np
 
 from vsa_gym.devices.elpas.effects import LIBRARY as ELPAS_LIBRARY
 from vsa_gym.elpas import model as em
 from vsa_gym.elpas.cone import spring_unchecked
+from vsa_gym.elpas.current_loop import ElpasCurrentLoop, current_loop_rows, loop_steps
+from vsa_gym.elpas.packing import params_tuple, tuple_matrix
 from vsa_gym.elpas.params import ElpasParams
-from vsa_gym.envs.elpas_common import CURRENT_LOOP_DT, SUBSTEP_MAX, ElpasCurrentLoop
 from vsa_gym.identify.adapters import Adapter, Theta, _get
 from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record
-from vsa_gym.physics.friction import bristle_rate
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 #: ``model.params`` of the sidecar: overrides of the nominal parameters, ``"group.field": value``
 PARAM_GROUPS = ("motor", "friction", "drive", "cone")
 
 
-@numba.njit(cache=True)
-def _control_step(x: np.ndarray, i_ref: np.ndarray, pi_int: np.ndarray, a_start: np.ndarray, a_end: np.ndarray,
-                  p: Any, h: float, n_sub: int, n_inner: int, k_t: float, R: float, P_m: float, I_m: float,
-                  I_clamp: float, refine: int, rate_h: float) -> tuple[np.ndarray, np.ndarray]:
-    """``n_inner`` steps of the PI current loop + compiled core (as ``ElpasTask._physics`` with
-    ``step_rig(compiled=True)``: reversal rows redone with ``refine`` times more substeps)."""
-    n = x.shape[0]
-    rin = np.empty((n, 2))
-    for k in range(1, n_inner + 1):
-        err = k_t * (i_ref - x[:, em.CURRENT])
-        pi_int = np.minimum(np.maximum(pi_int + I_m * err * h, -I_clamp), I_clamp)
-        target = a_start + (a_end - a_start) * (k / n_inner)
-        rin[:, 0] = P_m * err + pi_int + R * i_ref
-        rin[:, 1] = (target - x[:, em.ALPHA]) / h
-        x_new, _ = em._step_compiled(x, rin, p, h, n_sub, False)
-        hs = h / n_sub
-        fast = np.maximum(bristle_rate(p.friction, p.drive.N * x[:, em.OMEGA]),
-                          bristle_rate(p.friction, p.drive.N * x_new[:, em.OMEGA])) * hs > rate_h
-        rev = (np.sign(x[:, em.OMEGA]) != np.sign(x_new[:, em.OMEGA])) & fast
-        if np.any(rev):
-            x_fine, _ = em._step_compiled(x, rin, p, h, n_sub * refine, False)
-            for i in range(n):
-                if rev[i]:
-                    x_new[i] = x_fine[i]
-        x_new[:, em.ALPHA] = target
-        x = x_new
-    return x, pi_int
-
-
 def _tuple(p: ElpasParams, n: int) -> Any:
-    """Fresh (uncached, writable) named tuples of ``(n,)`` arrays for the compiled core."""
-    t = em._params_tuple(p, n)
+    """Fresh (uncached, writable) named tuples of ``(n,)`` arrays (the parameter-type effects change them)."""
+    t = params_tuple(p, n)
     return type(t)(*(type(g)(*(np.array(a, copy=True) for a in g)) for g in t))
 
 
@@ -139,9 +109,7 @@ class ElpasAdapter(Adapter):
         self.f_ref = record.input("force_reference")
         self.alpha = record.input("alpha")
         self.loop = ElpasCurrentLoop()
-        self.n_inner = max(1, int(round(self.dt / CURRENT_LOOP_DT)))
-        self.h = self.dt / self.n_inner
-        self.n_sub = max(1, int(np.ceil(self.h / SUBSTEP_MAX - 1e-9)))
+        self.n_inner, self.h, self.n_sub = loop_steps(self.dt)
         self.motor_encoder = IncrementalEncoder()
         self.alpha_encoder = AbsoluteEncoder(bits=12.0, gain_mismatch=0.0)
         init = record.meta.get("initial_state", {})
@@ -197,6 +165,7 @@ class ElpasAdapter(Adapter):
     def simulate_states(self, theta: Theta, n: int) -> tuple[np.ndarray, np.ndarray]:
         """``(gamma, F_act)`` trajectories ``(T, n)`` (true, before the sensors)."""
         p = self.param_tuple(theta, n)
+        P = tuple_matrix(p)
         a_off = _get(theta, "alpha_offset.offset", n)
         T = len(self.t)
         nom = self.nominal
@@ -221,9 +190,8 @@ class ElpasAdapter(Adapter):
             obs[:, 1] = alpha_hat[k]
             obs[:, 2] = self.f_ref[k]
             i_ref = np.asarray(cascade(obs), dtype=np.float64)[:, 0] * i_max
-            x, pi_int = _control_step(x, i_ref, pi_int, alpha[k], alpha[k + 1], p, self.h, self.n_sub,
-                                      self.n_inner, k_t, R, lp.P_m, lp.I_m, lp.I_m_max, em.REVERSAL_REFINE,
-                                      em.REVERSAL_RATE_H)
+            current_loop_rows(x, i_ref, pi_int, alpha[k], alpha[k + 1], P, self.h, self.n_inner, self.n_sub, False,
+                              k_t, R, lp.P_m, lp.I_m, lp.I_m_max)  # x, pi_int in place
             if not np.all(np.isfinite(x)):  # a diverging candidate row: freeze it (huge residual, no crash)
                 x = np.where(np.isfinite(x), x, 0.0)
         F = spring_unchecked(p.cone, gam, alpha).F_act

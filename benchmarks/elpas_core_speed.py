@@ -1,0 +1,167 @@
+"""Speed of the eLPAS core, its environments' step and the identification replay, before against after a change.
+
+    python -m benchmarks.elpas_core_speed                       (this checkout only)
+    python -m benchmarks.elpas_core_speed --against DIR [--rounds R]
+
+With ``--against DIR`` (another checkout of the project, e.g. the commit a change started from) each round runs
+one fresh interpreter per checkout, alternating (``DIR``, this one, ``DIR``, ...), so that both see the same machine
+load; every figure is the best of its rounds (microseconds per call) and the last column is
+``time(DIR) / time(this)`` (> 1: this checkout is faster).  The other checkout is only read: its bytecode and numba
+caches go to a temporary directory (``PYTHONPYCACHEPREFIX``, ``NUMBA_CACHE_DIR``).  Each interpreter warms every
+kernel first (the first run in a fresh checkout compiles them: minutes on a 2-core machine).
+
+Timed (one thread, ``time.perf_counter``, best of 3 repeats within an interpreter):
+
+* ``rig nN compiled``: ``model.step_rig(..., compiled=True)`` on ``N`` rows (0.1 ms step, random voltage, alpha sine);
+* ``rig nN default``: the same with the default ``compiled=False``;
+* ``rig nN dahl``: with one :class:`~vsa_gym.elpas.extensions.DahlHysteresis` extension (the Python-level path);
+* ``vehicle n1 compiled``: ``model.step_vehicle`` on one row;
+* ``env voltage`` / ``env current``: ``ELPAS-ForceTracking-v0`` ``env.step`` (``gym.make``, default control step);
+* ``replay nN``: :class:`~vsa_gym.identify.elpas_adapter.ElpasAdapter` ``simulate`` of a 0.3 s synthetic record
+  on ``N`` candidate rows (the 10 kHz current loop and the core), per call.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _best(fn: Callable[[], None], calls: int, repeats: int = 3) -> float:
+    """Best over ``repeats`` of the mean time of one of ``calls`` calls (us)."""
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            fn()
+        best = min(best, (time.perf_counter() - t0) / calls)
+    return best * 1e6
+
+
+def measure() -> dict[str, float]:
+    """Time this interpreter's checkout (see the module docstring); microseconds per call."""
+    import gymnasium as gym
+
+    import vsa_gym
+    from vsa_gym.elpas import model as em
+    from vsa_gym.elpas.extensions import DahlHysteresis
+    from vsa_gym.elpas.params import ElpasParams
+
+    out: dict[str, float] = {}
+    p = ElpasParams()
+    p = p.replace(numerics=p.numerics.replace(dt=1e-4, n_sub=1.0))
+    rng = np.random.default_rng(0)
+    for n, calls in ((1, 1000), (256, 100)):
+        volts = rng.uniform(-42.0, 42.0, (calls, n))
+        alpha = np.radians(8.0) * np.sin(np.linspace(0.0, 6.0, calls))[:, None] * np.ones(n)
+        inputs = [np.stack([volts[k], alpha[k]], axis=1) for k in range(calls)]
+        dahl = (DahlHysteresis(M_h=20.0, sigma=2000.0),)
+        for tag, kw, ext in (("compiled", {"compiled": True}, ()), ("default", {}, ()), ("dahl", {}, dahl)):
+            # the numpy paths of the original code are slow on many rows
+            calls_t = 20 if tag != "compiled" and n > 1 and calls > 20 else calls
+            state = {"x": em.initial_state_rig(p, n, gamma=0.3, extensions=ext), "k": 0}
+
+            def step(kw: dict = kw, ext: tuple = ext, state: dict = state, calls_t: int = calls_t, n: int = n,
+                     inputs: list = inputs) -> None:
+                k = state["k"] % calls_t
+                if k == 0:
+                    state["x"] = em.initial_state_rig(p, n, gamma=0.3, extensions=ext)
+                state["x"], _ = em.step_rig(p, state["x"], inputs[k], ext, **kw)
+                state["k"] += 1
+
+            step()  # warm-up (compilation or cache load)
+            out[f"rig n{n} {tag}"] = _best(step, calls_t)
+    xv = {"x": em.initial_state_vehicle(p, 1), "k": 0}
+    road = 0.01 * np.sin(np.linspace(0.0, 6.0, 1000))
+
+    def vstep() -> None:
+        xv["x"], _ = em.step_vehicle(p, xv["x"], np.array([[10.0, road[xv["k"] % 1000]]]), compiled=True)
+        xv["k"] += 1
+
+    vstep()
+    out["vehicle n1 compiled"] = _best(vstep, 1000)
+    for mode in ("voltage", "current"):
+        env = gym.make("vsa_gym/ELPAS-ForceTracking-v0", control_mode=mode)
+        env.reset(seed=0)
+        acts = np.random.default_rng(1).uniform(-1.0, 1.0, (1000, 1)).astype(np.float32)
+        cnt = {"k": 0}
+
+        def estep(env: gym.Env = env, acts: np.ndarray = acts, cnt: dict = cnt) -> None:
+            _, _, term, trunc, _ = env.step(acts[cnt["k"] % 1000])
+            cnt["k"] += 1
+            if term or trunc:
+                env.reset()
+
+        for _ in range(20):
+            estep()
+        out[f"env {mode}"] = _best(estep, 1000)
+        env.close()
+    from vsa_gym.identify.synthetic_elpas import make_elpas_record
+
+    rec, _ = make_elpas_record(2, "coulomb_friction", duration=0.3)
+    from vsa_gym.identify.elpas_adapter import ElpasAdapter
+
+    ad = ElpasAdapter(rec)
+    for n in (1, 16):
+        theta = {"coulomb_friction.F_c": np.linspace(0.0, 0.1, n)}
+        ad.simulate(theta, n)
+        out[f"replay n{n}"] = _best(lambda theta=theta, n=n: ad.simulate(theta, n), 3)
+    out["_file"] = vsa_gym.__file__  # type: ignore[assignment]
+    return out
+
+
+def _run_in(checkout: Path, cache: Path | None) -> dict[str, float]:
+    """``measure()`` in a fresh interpreter importing ``checkout``'s ``vsa_gym``."""
+    env = dict(os.environ, PYTHONPATH=str(checkout), NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    if cache is not None:
+        env.update(PYTHONPYCACHEPREFIX=str(cache / "pyc"), NUMBA_CACHE_DIR=str(cache / "numba"))
+    code = ("import importlib.util, json; "  # this file by path: ROOT on sys.path would shadow the other vsa_gym
+            f"spec = importlib.util.spec_from_file_location('elpas_core_speed', {str(Path(__file__).resolve())!r}); "
+            "mod = importlib.util.module_from_spec(spec); spec.loader.exec_module(mod); "
+            "print(json.dumps(mod.measure()))")
+    res = subprocess.run([sys.executable, "-c", code], cwd=checkout, env=env, capture_output=True, text=True,
+                         check=True)
+    got = json.loads(res.stdout.strip().splitlines()[-1])
+    if not str(got.pop("_file")).startswith(str(checkout)):
+        raise RuntimeError(f"{checkout}: imported another vsa_gym")
+    return got
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--against", type=Path, help="the other checkout (timed alternately with this one)")
+    ap.add_argument("--rounds", type=int, default=2)
+    args = ap.parse_args(argv)
+    if args.against is None:
+        for k, v in _run_in(ROOT, None).items():
+            print(f"{k:24s} {v:12.1f} us")
+        return
+    other = args.against.resolve()
+    best: dict[str, dict[str, float]] = {"before": {}, "after": {}}
+    with tempfile.TemporaryDirectory(prefix="elpas_speed_") as tmp:
+        cache = Path(os.environ.get("ELPAS_SPEED_CACHE", tmp))  # set it to keep the other checkout's compiled cache
+        for r in range(args.rounds):
+            for tag, where, c in (("before", other, cache), ("after", ROOT, None)):
+                got = _run_in(where, c)
+                for k, v in got.items():
+                    best[tag][k] = min(best[tag].get(k, np.inf), v)
+                print(f"round {r + 1}: {tag} done", file=sys.stderr)
+    print(f"{'us per call':24s} {'before':>12s} {'after':>12s} {'before/after':>13s}")
+    for k in best["after"]:
+        b, a = best["before"].get(k, np.nan), best["after"][k]
+        print(f"{k:24s} {b:12.1f} {a:12.1f} {b / a:13.2f}")
+
+
+if __name__ == "__main__":
+    main()
