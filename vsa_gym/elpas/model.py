@@ -112,13 +112,6 @@ from vsa_gym.physics.dc_motor import applied_voltage
 from vsa_gym.physics.friction import bristle_derivative, lugre_moment
 from vsa_gym.physics.parameters import as_batch
 
-# the names other modules imported from here before the split (issue 17), until they import the public ones
-_advance_row = advance_row
-_matrix_row_params = matrix_row_params
-_params_matrix = params_matrix
-_tyre_force_point = tyre_force_point
-_n_sub = substep_count
-
 
 # ----------------------------------------------------------------------------- stepping
 def _check_state(name: str, x: np.ndarray, width: int) -> np.ndarray:

@@ -25,7 +25,6 @@ drive (nominal 25 A [proposed], peak 75 A for 2 s).
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
@@ -35,6 +34,7 @@ from numba.extending import register_jitable
 
 from vsa_gym.elpas import model as em
 from vsa_gym.elpas.cone import spring_unchecked
+from vsa_gym.elpas.current_loop import CURRENT_LOOP_DT, SUBSTEP_MAX, ElpasCurrentLoop, current_loop_row
 from vsa_gym.elpas.params import ElpasParams, NumericsParams
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
@@ -48,9 +48,6 @@ from vsa_gym.envs.task import (
 )
 from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
-CURRENT_LOOP_DT = 1e-4  # s (10 kHz)
-SUBSTEP_MAX = 2.5e-4  # s, the core's validated RK4 sub-step
-
 # entries of the drive configuration array ``ElpasTask._cfg`` read by the compiled step
 (C_DT, C_H, C_N_INNER, C_N_SUB, C_CURRENT_MODE, C_P_M, C_I_M, C_I_M_MAX, C_I_NOM, C_V_GAIN, C_ENC_MOTOR,
  C_ENC_ALPHA, C_ENC_GM, C_I2T_TRIP, C_REGEN_CLIP, C_VEHICLE) = range(16)
@@ -62,15 +59,6 @@ N_DRIVE = 11
 OUT_F, OUT_NEW_SEGMENT = 3, 4  # after task.OUT_REWARD, OUT_FAIL, OUT_CLIPPED
 N_OUT_TAIL = 5
 PARALLEL_MIN_ROWS = 64  # rows from which the compiled steps run their row loop on all cores
-
-
-@dataclasses.dataclass(frozen=True)
-class ElpasCurrentLoop:
-    """Motor controller of the eLPAS paper (eqs. 10-13, Table 2)."""
-
-    P_m: float = 0.1  # V per N m of torque error
-    I_m: float = 50.0  # V per N m s
-    I_m_max: float = 28.0  # V, integrator clamp
 
 
 def stack_elpas(rows: list[ElpasParams], numerics: NumericsParams) -> ElpasParams:
@@ -148,7 +136,8 @@ class ElpasTask(CompiledStepTask):
         self.s["p_last"] = drv[:, D_P_LAST]  # mean electrical power of the last step (W), for the traces
         me, ae = self.motor_encoder, self.alpha_encoder
         cfg = np.zeros(N_CFG)
-        cfg[C_DT], cfg[C_H], cfg[C_N_INNER], cfg[C_N_SUB] = self.control_dt, h, self.n_inner, em._n_sub(self.params)
+        cfg[C_DT], cfg[C_H], cfg[C_N_INNER] = self.control_dt, h, self.n_inner
+        cfg[C_N_SUB] = em.substep_count(self.params)
         cfg[C_CURRENT_MODE] = control_mode == "current"
         cfg[C_P_M], cfg[C_I_M], cfg[C_I_M_MAX] = self.loop.P_m, self.loop.I_m, self.loop.I_m_max
         cfg[C_I_NOM], cfg[C_V_GAIN], cfg[C_I2T_TRIP] = self.i_nominal, self.v_gain, self.i2t_trip_s
@@ -230,10 +219,10 @@ class ElpasTask(CompiledStepTask):
         self.s["force"][rows] = add_noise(F, self.noise["force"], self.rngs, rows)
 
     def _param_matrix(self) -> np.ndarray:
-        """The parameters of every row for the compiled step (``model._params_matrix``, cached on the set)."""
+        """The parameters of every row for the compiled step (``model.params_matrix``, cached on the set)."""
         memo = self._P_memo
         if memo is None or memo[0] is not self.params:
-            memo = self._P_memo = (self.params, em._params_matrix(self.params, self.n))
+            memo = self._P_memo = (self.params, em.params_matrix(self.params, self.n))
         return memo[1]
 
     def _reset_sensors(self, rows: np.ndarray) -> None:
@@ -319,7 +308,7 @@ class ElpasTask(CompiledStepTask):
 
 # ---------------------------------------------------------------------------- compiled per-step drive
 # One row's drive, core step, sensors and I^2 t state, element by element: the core's compiled
-# per-row step (model._advance_row, the same equations as step_rig/step_vehicle), the PI current loop with the
+# per-row step (model.advance_row, the same equations as step_rig/step_vehicle), the PI current loop with the
 # operations of its numpy form, sensing.i2t_update / update_velocity, and the encoders' quantisers of
 # physics.sensors (IncrementalEncoder / AbsoluteEncoder.measure; step 0: encoder disabled, exact angle).
 @register_jitable
@@ -331,34 +320,24 @@ def drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarra
     Returns ``(E_el, F_act, finite)``: the electrical energy (J), the true actuator force at the new state and
     whether the new state is finite.
     """
-    p = em._matrix_row_params(P, i)
+    p = em.matrix_row_params(P, i)
     vehicle = cfg[C_VEHICLE] != 0.0
     col = em.Y_R if vehicle else em.ALPHA
     dt, h = cfg[C_DT], cfg[C_H]
     n_inner, n_sub = int(cfg[C_N_INNER]), int(cfg[C_N_SUB])
     xr = x[i]
-    x_new = np.empty(xr.shape[0])
-    e = np.empty(em.N_POWER)
     if cfg[C_CURRENT_MODE] == 0.0:
+        x_new = np.empty(xr.shape[0])
+        e = np.empty(em.N_POWER)
         u = cmd * p.motor.U_max
-        em._advance_row(xr, u, (second_end - xr[col]) / h, p, h, n_sub, vehicle, x_new, e)
+        em.advance_row(xr, u, (second_end - xr[col]) / h, p, h, n_sub, vehicle, x_new, e)
         x_new[col] = second_end
         xr[:] = x_new
         e_el = e[em.P_EL]
     else:
         m = p.motor
-        i_ref = cmd * m.I_max
-        start = xr[col]
-        e_el = 0.0
-        for k in range(1, n_inner + 1):
-            err = m.k_t * (i_ref - xr[em.CURRENT])
-            pi_int[i] = min(max(pi_int[i] + cfg[C_I_M] * err * h, -cfg[C_I_M_MAX]), cfg[C_I_M_MAX])
-            u = cfg[C_P_M] * err + pi_int[i] + m.R * i_ref
-            target = start + (second_end - start) * (k / n_inner)
-            em._advance_row(xr, u, (target - xr[col]) / h, p, h, n_sub, vehicle, x_new, e)
-            x_new[col] = target
-            xr[:] = x_new
-            e_el = e_el + e[em.P_EL]
+        pi_int[i], e_el = current_loop_row(xr, cmd * m.I_max, pi_int[i], xr[col], second_end, p, h, n_inner, n_sub,
+                                           vehicle, m.k_t, m.R, cfg[C_P_M], cfg[C_I_M], cfg[C_I_M_MAX])
     finite = True
     for j in range(xr.shape[0]):
         finite = finite and np.isfinite(xr[j])
@@ -398,7 +377,7 @@ ENERGY_INFO = ("energy_el", "energy_charged", "energy_el_total", "energy_charged
 @register_jitable
 def drive_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarray, cfg: np.ndarray) -> tuple[float, float]:
     """``(margin_gamma_stop, margin_i2t)`` of row ``i`` (:meth:`ElpasTask._drive_margins`)."""
-    p = em._matrix_row_params(P, i)
+    p = em.matrix_row_params(P, i)
     lim = i2t_limit(p.motor.I_max, cfg[C_I_NOM], cfg[C_I2T_TRIP])
     return p.cone.gamma_max - abs(x[i, em.GAMMA]), 1.0 - i2t[i] / lim
 

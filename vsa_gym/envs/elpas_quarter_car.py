@@ -230,9 +230,9 @@ def _quarter_car_margins_row(x: np.ndarray, i: int, i2t: np.ndarray, P: np.ndarr
                              cfg: np.ndarray) -> tuple[float, float, float, float, float, float]:
     """Row ``i``'s :data:`MARGINS` (end stop, I^2 t, wishbone travel, tyre load ``F_t / F_0``), then ``F_t`` and
     the static load ``F_0``."""
-    p = em._matrix_row_params(P, i)
+    p = em.matrix_row_params(P, i)
     alpha = x[i, em.ALPHA]
-    F_t = em._tyre_force_point(x[i, em.Y_S], alpha, x[i, em.Y_R], p)
+    F_t = em.tyre_force_point(x[i, em.Y_S], alpha, x[i, em.Y_R], p)
     F0 = (p.car.m_s + p.car.m_u) * GRAVITY
     mg, mi = drive_margins_row(x, i, i2t, P, cfg)
     return mg, mi, p.cone.alpha_max - abs(alpha), F_t / F0, F_t, F0
@@ -279,7 +279,7 @@ def _quarter_car_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg: n
     aw = _sos_row(sos, acc, zi, i)  # the streaming ISO 2631-1 W_k filter of sos_step
     acc_s[i], acc_meas[i], a_w[i] = acc, acc, aw  # reading without noise (Python adds it if configured)
     aw_sq[i] += aw**2
-    p = em._matrix_row_params(P, i)
+    p = em.matrix_row_params(P, i)
     alpha = x[i, em.ALPHA]
     mg, mi, mt, load, F_t, F0 = _quarter_car_margins_row(x, i, i2t, P, cfg)
     travel_frac = abs(alpha) / p.cone.alpha_max

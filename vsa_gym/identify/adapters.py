@@ -94,8 +94,6 @@ def theta_column(theta: Theta, key: str, n: int, default: float = 0.0) -> np.nda
     return np.full(n, default) if v is None else np.broadcast_to(np.asarray(v, dtype=np.float64), (n,))
 
 
-_get = theta_column  # the name the eLPAS adapter still imports (until it moves to its device package)
-
 
 def make_adapter(record: Record, **kw: Any) -> Adapter:
     """The identification adapter of the record's device (:mod:`vsa_gym.devices`) replaying ``record``."""

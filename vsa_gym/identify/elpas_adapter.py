@@ -55,7 +55,7 @@ from vsa_gym.elpas.cone import spring_unchecked
 from vsa_gym.elpas.current_loop import ElpasCurrentLoop, current_loop_rows, loop_steps
 from vsa_gym.elpas.packing import params_tuple, tuple_matrix
 from vsa_gym.elpas.params import ElpasParams
-from vsa_gym.identify.adapters import Adapter, Theta, _get
+from vsa_gym.identify.adapters import Adapter, Theta, theta_column
 from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record
@@ -153,20 +153,20 @@ class ElpasAdapter(Adapter):
     # ------------------------------------------------------------------ replay
     def param_tuple(self, theta: Theta, n: int) -> Any:
         t = _tuple(self.nominal, n)
-        dF_c = _get(theta, "coulomb_friction.F_c", n)
+        dF_c = theta_column(theta, "coulomb_friction.F_c", n)
         t.friction.F_c[:] += dF_c
-        t.friction.F_s[:] += dF_c + _get(theta, "stribeck_friction.F_s", n)
-        t.friction.s2[:] += _get(theta, "viscous_friction.s2", n)
-        t.cone.C_a[:] *= 1.0 + _get(theta, "spring_stiffness_drift.drift", n)
-        t.drive.J_r[:] *= 1.0 + _get(theta, "inertia_error.rel", n)
-        t.motor.k_t[:] *= 1.0 - _get(theta, "gearbox_efficiency.loss", n)
+        t.friction.F_s[:] += dF_c + theta_column(theta, "stribeck_friction.F_s", n)
+        t.friction.s2[:] += theta_column(theta, "viscous_friction.s2", n)
+        t.cone.C_a[:] *= 1.0 + theta_column(theta, "spring_stiffness_drift.drift", n)
+        t.drive.J_r[:] *= 1.0 + theta_column(theta, "inertia_error.rel", n)
+        t.motor.k_t[:] *= 1.0 - theta_column(theta, "gearbox_efficiency.loss", n)
         return t
 
     def simulate_states(self, theta: Theta, n: int) -> tuple[np.ndarray, np.ndarray]:
         """``(gamma, F_act)`` trajectories ``(T, n)`` (true, before the sensors)."""
         p = self.param_tuple(theta, n)
         P = tuple_matrix(p)
-        a_off = _get(theta, "alpha_offset.offset", n)
+        a_off = theta_column(theta, "alpha_offset.offset", n)
         T = len(self.t)
         nom = self.nominal
         N = float(nom.drive.N)
