@@ -5,7 +5,7 @@ Three levels, innermost first:
 * **current loop** (eqs. 10-13): PI on the torque error with the integrator clamped at
   ``I_m^max = 28 V`` (anti-windup) plus the resistance feed-forward ``R I_ref``.  It is *not*
   re-implemented here: the policy drives the environment with ``control_mode="current"``,
-  whose 10 kHz loop is exactly that controller (:class:`vsa_gym.envs.elpas_common.ElpasCurrentLoop`);
+  whose 10 kHz loop is exactly that controller (:class:`vsa_gym.devices.elpas.task.ElpasCurrentLoop`);
   the policy's action is ``I_ref / I_max``.
 * **angle loop** (eq. 14): ``C_a(s) = -P_a (s + D_a)/(s + L_a) - I_a/s |_{I_a^max}`` on the error
   ``gamma_ref - gamma_hat``; its output is the reference moment at the motor (N m), hence
@@ -32,8 +32,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import signal
 
-from vsa_gym.elpas.cone import spring_unchecked
-from vsa_gym.elpas.params import ElpasParams
+from vsa_gym.devices.elpas.cone import spring_unchecked
+from vsa_gym.devices.elpas.params import ElpasParams
 
 ELPAS_FORCE_OBS = ("gamma_hat", "gamma_dot_hat", "alpha_hat", "alpha_dot_hat", "current", "force", "force_ref",
                    "force_err")

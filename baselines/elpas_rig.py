@@ -12,7 +12,7 @@ sees exactly the environment's observation vector.
 rigs at once and returns time series.  The hydropulse force sensor (between wishbone and
 hydropulse, Sec. 5.1) also carries the wishbone inertia: from the moment balance about the
 pivot, ``F_h = F_act + J_w alpha'' / (l cos alpha)``; it is returned as ``F_hydropulse``
-(``J_w`` from :class:`vsa_gym.elpas.params.QuarterCarParams`, [proposed] 0.6 kg m^2).
+(``J_w`` from :class:`vsa_gym.devices.elpas.params.QuarterCarParams`, [proposed] 0.6 kg m^2).
 """
 
 from __future__ import annotations
@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from vsa_gym.elpas import model as em
-from vsa_gym.elpas.params import ElpasParams
-from vsa_gym.envs.elpas_force_tracking import ForceTrackingTask
+from vsa_gym.devices.elpas import model as em
+from vsa_gym.devices.elpas.env_force_tracking import ForceTrackingTask
+from vsa_gym.devices.elpas.params import ElpasParams
 
 
 class RigExperimentTask(ForceTrackingTask):

@@ -29,9 +29,9 @@ import numpy as np
 from scipy import signal
 
 from baselines.elpas_cascade import ElpasCascade, ElpasCascadeConfig
-from vsa_gym.elpas.cone import effective_stiffness
-from vsa_gym.elpas.model import equilibrium_alpha
-from vsa_gym.elpas.params import GRAVITY, ElpasParams
+from vsa_gym.devices.elpas.cone import effective_stiffness
+from vsa_gym.devices.elpas.model import equilibrium_alpha
+from vsa_gym.devices.elpas.params import GRAVITY, ElpasParams
 from vsa_gym.vehicle.comfort import weighted_rms
 
 QUARTER_CAR_ID = "vsa_gym/ELPAS-QuarterCar-v0"

@@ -12,7 +12,7 @@ episodes (under two minutes on an idle machine); the default uses 3 seeds and 2 
 
 Environment settings: the eLPAS baselines drive the paper's current loop (``control_mode="current"``);
 the quarter car runs on the registered default, an ISO 8608 class B road at 20 m/s with a light 300 N s/m
-parallel damper (``vsa_gym.envs.elpas_quarter_car.TASK_PARALLEL_DAMPER``): on class C this light car lifts a
+parallel damper (``vsa_gym.devices.elpas.env_quarter_car.TASK_PARALLEL_DAMPER``): on class C this light car lifts a
 wheel within about a second whatever the controller does, and with a 1.2 kN s/m damper the damper's 4-12 Hz
 transmission dominates the W_k comfort metric, which no body-velocity controller can then move.
 """

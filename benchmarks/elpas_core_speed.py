@@ -14,10 +14,10 @@ Timed (one thread, ``time.perf_counter``, best of 3 repeats within an interprete
 
 * ``rig nN compiled``: ``model.step_rig(..., compiled=True)`` on ``N`` rows (0.1 ms step, random voltage, alpha sine);
 * ``rig nN default``: the same with the default ``compiled=False``;
-* ``rig nN dahl``: with one :class:`~vsa_gym.elpas.extensions.DahlHysteresis` extension (the Python-level path);
+* ``rig nN dahl``: with one :class:`~vsa_gym.devices.elpas.extensions.DahlHysteresis` extension (the Python-level path);
 * ``vehicle n1 compiled``: ``model.step_vehicle`` on one row;
 * ``env voltage`` / ``env current``: ``ELPAS-ForceTracking-v0`` ``env.step`` (``gym.make``, default control step);
-* ``replay nN``: :class:`~vsa_gym.identify.elpas_adapter.ElpasAdapter` ``simulate`` of a 0.3 s synthetic record
+* ``replay nN``: :class:`~vsa_gym.devices.elpas.adapter.ElpasAdapter` ``simulate`` of a 0.3 s synthetic record
   on ``N`` candidate rows (the 10 kHz current loop and the core), per call.
 """
 
@@ -54,9 +54,9 @@ def measure() -> dict[str, float]:
     import gymnasium as gym
 
     import vsa_gym
-    from vsa_gym.elpas import model as em
-    from vsa_gym.elpas.extensions import DahlHysteresis
-    from vsa_gym.elpas.params import ElpasParams
+    from vsa_gym.devices.elpas import model as em
+    from vsa_gym.devices.elpas.extensions import DahlHysteresis
+    from vsa_gym.devices.elpas.params import ElpasParams
 
     out: dict[str, float] = {}
     p = ElpasParams()
@@ -107,10 +107,10 @@ def measure() -> dict[str, float]:
             estep()
         out[f"env {mode}"] = _best(estep, 1000)
         env.close()
-    from vsa_gym.identify.synthetic_elpas import make_elpas_record
+    from vsa_gym.devices.elpas.synthetic import make_elpas_record
 
     rec, _ = make_elpas_record(2, "coulomb_friction", duration=0.3)
-    from vsa_gym.identify.elpas_adapter import ElpasAdapter
+    from vsa_gym.devices.elpas.adapter import ElpasAdapter
 
     ad = ElpasAdapter(rec)
     for n in (1, 16):

@@ -47,8 +47,8 @@ from scipy import signal  # noqa: E402
 
 from baselines.elpas_cascade import ElpasCascade, ElpasCascadeConfig  # noqa: E402
 from baselines.elpas_rig import run_rig  # noqa: E402
-from vsa_gym.elpas.cone import actuator_force, effective_stiffness  # noqa: E402
-from vsa_gym.elpas.params import ElpasParams  # noqa: E402
+from vsa_gym.devices.elpas.cone import actuator_force, effective_stiffness  # noqa: E402
+from vsa_gym.devices.elpas.params import ElpasParams  # noqa: E402
 
 DT = 1e-3  # s, the force-tracking environment's control step
 FORCE_NOISE_RMS = 10.0  # N [proposed]: small enough that gamma_ref stays below the speed limit

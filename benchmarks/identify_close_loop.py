@@ -329,8 +329,8 @@ def run_elpas(seed: int = 2, log: Callable[[str], None] = print, eval_seeds: Seq
     for reference.  No gain search.
     """
     from baselines.elpas_cascade import ElpasCascadeConfig
-    from vsa_gym.identify.elpas_adapter import ElpasAdapter
-    from vsa_gym.identify.synthetic_elpas import make_elpas_record
+    from vsa_gym.devices.elpas.adapter import ElpasAdapter
+    from vsa_gym.devices.elpas.synthetic import make_elpas_record
 
     t0 = time.perf_counter()
     rec, truth = make_elpas_record(seed, "spring_stiffness_drift", "sine", duration=1.5)

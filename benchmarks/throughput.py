@@ -239,7 +239,7 @@ def accuracy(env_id: str, n_steps: int, seed: int = 0, **kwargs: Any) -> dict[st
         ref, _ = reference_solution(lambda k: (lambda y: model.rhs(y, u[k], tau[k])), x0[0], dt, n_steps)
         rtol = 1e-9
     else:
-        from vsa_gym.elpas import model as em
+        from vsa_gym.devices.elpas import model as em
 
         p = task.params
         vehicle = bool(task.vehicle)

@@ -72,8 +72,8 @@ def test_the_declared_input_rule_reaches_the_record_checker(tmp_path) -> None:
 def test_adapters_name_only_library_effects(tmp_path) -> None:
     """Every effect an adapter offers on a record is its device library's entry (or a measurement effect)."""
     from vsa_gym.devices.drive.synthetic import make_drive_record
+    from vsa_gym.devices.elpas.synthetic import make_elpas_record
     from vsa_gym.devices.vsaut2.synthetic import make_vsaut2_record
-    from vsa_gym.identify.synthetic_elpas import make_elpas_record
 
     for dev, (rec, _) in (("drive", make_drive_record(1, None)), ("vsaut2", make_vsaut2_record(1, effect=None)),
                           ("elpas", make_elpas_record(1, None, duration=0.3))):

@@ -20,7 +20,7 @@ from baselines.vsaut2_decoupled import (
     vsaut2_decoupled_factory,
 )
 from benchmarks.elpas_paper import bandwidth, noise_experiments
-from vsa_gym.elpas.params import ElpasParams
+from vsa_gym.devices.elpas.params import ElpasParams
 
 FT = "vsa_gym/ELPAS-ForceTracking-v0"
 QC = "vsa_gym/ELPAS-QuarterCar-v0"

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from vsa_gym.elpas import cone
-from vsa_gym.elpas.params import ConeGeometry
+from vsa_gym.devices.elpas import cone
+from vsa_gym.devices.elpas.params import ConeGeometry
 
 C = ConeGeometry()
 G = np.radians(np.linspace(-90.0, 90.0, 37))

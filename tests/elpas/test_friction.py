@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from vsa_gym.elpas import model as em
-from vsa_gym.elpas.params import ConeGeometry, ElpasParams
+from vsa_gym.devices.elpas import model as em
+from vsa_gym.devices.elpas.params import ConeGeometry, ElpasParams
 from vsa_gym.physics import friction as fr
 
 P = ElpasParams()

@@ -6,9 +6,9 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from vsa_gym.elpas import model as em
-from vsa_gym.elpas.extensions import DahlHysteresis
-from vsa_gym.elpas.params import GRAVITY, DriveParams, ElpasParams
+from vsa_gym.devices.elpas import model as em
+from vsa_gym.devices.elpas.extensions import DahlHysteresis
+from vsa_gym.devices.elpas.params import GRAVITY, DriveParams, ElpasParams
 from vsa_gym.physics.integrate import reference_solution
 
 P = ElpasParams()
@@ -259,7 +259,7 @@ def test_extension_path_runs_the_compiled_stages() -> None:
     """With extensions the step evaluates them in Python between the compiled stages (``integrator.stage_rows``,
     one Python-level loop); with a null extension it equals the all-compiled step bit for bit, reversal refinement
     included (bang-bang voltages reverse the speed), rig and vehicle, batched parameters."""
-    from vsa_gym.elpas.integrator import reversal_rows
+    from vsa_gym.devices.elpas.integrator import reversal_rows
 
     pb = P.replace(drive=DriveParams(J_r=np.array([0.6, 0.7])))
     null = (DahlHysteresis(M_h=0.0),)

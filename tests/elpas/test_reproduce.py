@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from vsa_gym.elpas import reproduce
-from vsa_gym.elpas.params import ElpasParams
+from vsa_gym.devices.elpas import reproduce
+from vsa_gym.devices.elpas.params import ElpasParams
 from vsa_gym.physics.friction import steady_state_moment
 
 

@@ -122,7 +122,7 @@ def test_energy_term_is_core_integral_of_electrical_power_vsaut2() -> None:
 
 
 def test_energy_term_elpas_and_regen_policy() -> None:
-    from vsa_gym.elpas import model as em
+    from vsa_gym.devices.elpas import model as em
 
     for regen in ("count", "clip"):
         env = gym.make("vsa_gym/ELPAS-ForceTracking-v0", regen=regen, w_energy=1e-3)
@@ -415,7 +415,7 @@ def test_quarter_car_wk_filter_step_equals_scipy_sosfilt() -> None:
     """The compiled one-sample W_k filter of the quarter-car task is scipy.signal.sosfilt's recursion, bit for bit."""
     from scipy import signal
 
-    from vsa_gym.envs.elpas_quarter_car import sos_step
+    from vsa_gym.devices.elpas.env_quarter_car import sos_step
     from vsa_gym.vehicle.comfort import wk_sos
 
     sos = wk_sos(1000.0)

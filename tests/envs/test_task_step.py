@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 import pytest
 
+from vsa_gym.devices.elpas.env_force_tracking import ForceTrackingTask
+from vsa_gym.devices.elpas.env_quarter_car import QuarterCarTask
 from vsa_gym.devices.vsaut2.env_position_stiffness import PositionStiffnessTask
 from vsa_gym.devices.vsaut2.env_throw import ThrowTask
-from vsa_gym.envs.elpas_force_tracking import ForceTrackingTask
-from vsa_gym.envs.elpas_quarter_car import QuarterCarTask
 
 TASKS = {"PositionStiffnessTask": PositionStiffnessTask, "ThrowTask": ThrowTask,
          "ForceTrackingTask": ForceTrackingTask, "QuarterCarTask": QuarterCarTask}

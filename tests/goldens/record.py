@@ -55,10 +55,10 @@ def _stack_steps(out: Golden, prefix: str, steps: list[dict[str, Any]]) -> None:
 
 # ----------------------------------------------------------------------------- tasks
 def _task_cases() -> list[tuple[str, type, dict[str, Any], int, int]]:
+    from vsa_gym.devices.elpas.env_force_tracking import ForceTrackingTask
+    from vsa_gym.devices.elpas.env_quarter_car import QuarterCarTask
     from vsa_gym.devices.vsaut2.env_position_stiffness import PositionStiffnessTask
     from vsa_gym.devices.vsaut2.env_throw import ThrowTask
-    from vsa_gym.envs.elpas_force_tracking import ForceTrackingTask
-    from vsa_gym.envs.elpas_quarter_car import QuarterCarTask
 
     return [
         ("ps_default", PositionStiffnessTask, {}, 3, 700),
@@ -226,9 +226,9 @@ def _theta_rows(ad: Any) -> tuple[dict[str, np.ndarray], int]:
 def _identify_records(tmp: Path) -> list[tuple[str, Path]]:
     from tests.truthsim.scenarios import draw_case, write_case
     from vsa_gym.devices.drive.synthetic import make_drive_record
+    from vsa_gym.devices.elpas.synthetic import make_elpas_record
     from vsa_gym.devices.vsaut2.synthetic import make_vsaut2_record
     from vsa_gym.identify.record import write_record
-    from vsa_gym.identify.synthetic_elpas import make_elpas_record
 
     recs: list[tuple[str, Path]] = []
     for name, make in (("drive_coulomb", lambda: make_drive_record(4, "coulomb_friction")),

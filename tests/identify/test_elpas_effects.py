@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from tests.identify.recovery import assert_planted_effect_recovered
+from vsa_gym.devices.elpas.adapter import ElpasAdapter
+from vsa_gym.devices.elpas.synthetic import make_elpas_record
 from vsa_gym.identify.adapters import make_adapter
-from vsa_gym.identify.elpas_adapter import ElpasAdapter
 from vsa_gym.identify.recovery import identify_case, main_key
-from vsa_gym.identify.synthetic_elpas import make_elpas_record
 
 REL_TOL = 0.10
 

@@ -2,7 +2,7 @@
 
 Parameters are addressed by dotted paths into the physics core's parameter set,
 e.g. ``"lever.k"`` or ``"I_o"`` for :class:`vsa_gym.devices.vsaut2.params.VsaUT2Params`,
-``"friction.F_c"`` or ``"car.m_s"`` for :class:`vsa_gym.elpas.params.ElpasParams`::
+``"friction.F_c"`` or ``"car.m_s"`` for :class:`vsa_gym.devices.elpas.params.ElpasParams`::
 
     env = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0",
                    domain_randomization={"lever.k": (1700.0, 2100.0), "I_o": (0.009, 0.013)})

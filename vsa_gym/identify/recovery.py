@@ -11,7 +11,7 @@ Each device declares its bench (:class:`SyntheticBench`) in :mod:`vsa_gym.device
 
 * vsaUT-II (:data:`vsa_gym.devices.vsaut2.synthetic.BENCH`): the catalogue is ``RANGES[experiment]``,
   fitted with ``Identifier()`` on the record's own fit/validation parts, scored on its test part.
-* eLPAS (:data:`vsa_gym.identify.synthetic_elpas.BENCH`): the catalogue is ``ELPAS_RANGES``; the fit
+* eLPAS (:data:`vsa_gym.devices.elpas.synthetic.BENCH`): the catalogue is ``ELPAS_RANGES``; the fit
   record is a sine or step force test of ``ELPAS_DURATION`` s, the held-out record the
   other kind of test of the same device (same planted parameters, another seed),
   ``Identifier(n_fit=2, max_nfev=15)``.

@@ -20,12 +20,12 @@ DEVICE = DeviceSpec(
         needs=frozenset({"alpha"}),
         needs_message="elpas rig record needs the imposed wishbone angle 'alpha' as an input",
     ),
-    adapter="vsa_gym.identify.elpas_adapter:ElpasAdapter",
+    adapter="vsa_gym.devices.elpas.adapter:ElpasAdapter",
     effects="vsa_gym.devices.elpas.effects:LIBRARY",
-    recovery="vsa_gym.identify.synthetic_elpas:BENCH",
+    recovery="vsa_gym.devices.elpas.synthetic:BENCH",
     envs=(
-        EnvEntry("ELPAS-ForceTracking-v0", "vsa_gym.envs.elpas_force_tracking:ElpasForceTracking", 5000),
-        EnvEntry("ELPAS-QuarterCar-v0", "vsa_gym.envs.elpas_quarter_car:ElpasQuarterCar", 5000),
+        EnvEntry("ELPAS-ForceTracking-v0", "vsa_gym.devices.elpas.env_force_tracking:ElpasForceTracking", 5000),
+        EnvEntry("ELPAS-QuarterCar-v0", "vsa_gym.devices.elpas.env_quarter_car:ElpasQuarterCar", 5000),
     ),
-    reproduce="vsa_gym.elpas.reproduce",
+    reproduce="vsa_gym.devices.elpas.reproduce",
 )

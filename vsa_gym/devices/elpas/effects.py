@@ -1,7 +1,7 @@
 """The eLPAS's effect library (:mod:`vsa_gym.identify.library`): what
-:class:`vsa_gym.identify.elpas_adapter.ElpasAdapter` may name on a hydropulse-rig force test, with bounds relative
+:class:`vsa_gym.devices.elpas.adapter.ElpasAdapter` may name on a hydropulse-rig force test, with bounds relative
 to the nominal friction of Table 1 (``F_c``, ``F_s``, ``s2`` of the adapter's nominal parameters), and the
-magnitudes the synthetic rig records plant (:mod:`vsa_gym.identify.synthetic_elpas`).  The equations are the
+magnitudes the synthetic rig records plant (:mod:`vsa_gym.devices.elpas.synthetic`).  The equations are the
 core's (LuGre friction, cone spring, drive); the mapping is ``ElpasAdapter.param_tuple`` and the imposed angle.
 """
 
@@ -11,7 +11,7 @@ from typing import Any
 
 from vsa_gym.identify.library import Effect, Param
 
-RIG = "rig"  # the synthetic rig force tests (sine and step) of vsa_gym.identify.synthetic_elpas
+RIG = "rig"  # the synthetic rig force tests (sine and step) of vsa_gym.devices.elpas.synthetic
 MOTOR = "at the motor shaft (LuGre)"
 SOURCE = "Table 1's friction, which the paper calls underestimated (+75 ... +175 %), and the tolerances of the " \
     "cone spring rate, the arm inertia, the drive's efficiency and the wishbone encoder's alignment"
