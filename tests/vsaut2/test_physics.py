@@ -8,11 +8,13 @@ import pytest
 from vsa_gym.devices.vsaut2.belt import belt_stiffness_at_frame
 from vsa_gym.devices.vsaut2.lever import lever_forces, spring_stiffness
 from vsa_gym.devices.vsaut2.model import POWER, STATE, VsaUT2Model
-from vsa_gym.devices.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.params import RE40Motor, VsaUT2Params, gp42c_gearbox, re40_motor
 from vsa_gym.devices.vsaut2.pivot import gear_ratio, pivot_jacobian, pivot_position
 from vsa_gym.devices.vsaut2.statics import static_output_stiffness
 from vsa_gym.physics.dc_motor import DCMotorParams
+from vsa_gym.physics.friction import LuGreParams
 from vsa_gym.physics.gearbox import GearboxParams, input_torque
+from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 from .conftest import input_program
 
@@ -50,7 +52,7 @@ def test_energy_imbalance_is_integration_error(model):
 
 
 def test_gearbox_losses_oppose_power_flow():
-    gb = GearboxParams()
+    gb = gp42c_gearbox()
     tau_L = np.array([5.0, -5.0, 5.0, -5.0, 0.0, 12.0])
     w = np.array([100.0, -100.0, -100.0, 100.0, 50.0, 0.0])
     tau_in, p_loss = input_torque(gb, tau_L, w)
@@ -154,10 +156,10 @@ def test_invalid_parameters_name_the_field(change, field):
 
 
 def test_invalid_nested_parameter_names_the_field():
-    with pytest.raises(ValueError, match=r"DCMotorParams\.J"):
-        DCMotorParams(J=-1e-6)
+    with pytest.raises(ValueError, match=r"RE40Motor\.J"):
+        re40_motor().replace(J=-1e-6)
     with pytest.raises(ValueError, match=r"eta_max"):
-        GearboxParams(eta_max=1.5)
+        gp42c_gearbox().replace(eta_max=1.5)
 
 
 def test_invalid_inputs_raise(model):
@@ -206,3 +208,23 @@ def test_extension_port_adds_a_joint_force(model):
     assert p2[0, POWER["stops"]] == pytest.approx(0.05)
     with pytest.raises(ValueError, match="n_states"):
         VsaUT2Model(model.params, (ExtraDamping(0.05, n_states=-1),))
+
+
+@pytest.mark.parametrize("component", [DCMotorParams, GearboxParams, LuGreParams, IncrementalEncoder, AbsoluteEncoder])
+def test_generic_components_carry_no_device_numbers(component: type) -> None:
+    """physics/ holds generic components: a motor, gearhead, friction or encoder without the device's numbers is
+    an error, not silently some paper's device."""
+    with pytest.raises(TypeError, match="missing"):
+        component()
+
+
+def test_device_variant_documents_its_source_and_shares_the_compiled_type() -> None:
+    rows = {r["name"]: r for r in RE40Motor.describe()}
+    assert rows["R"]["default"] == 0.317 and rows["R"]["source"] == "vsaUT-II Table II (RE-40)"
+    assert rows["U_max"]["source"] == "vsaUT-II Table IV row 17"
+    assert rows["R"]["unit"] == "ohm" and rows["R"]["symbol"] == "R"
+    assert type(re40_motor().as_tuple()) is type(DCMotorParams(**re40_motor().to_dict()).as_tuple())
+    with pytest.raises(ValueError, match="R"):
+        re40_motor().replace(R=-1.0)
+    with pytest.raises(ValueError, match="unknown fields"):
+        DCMotorParams.variant("X", __name__, "", {"R_typo": 1.0}, source="s", tag="paper")

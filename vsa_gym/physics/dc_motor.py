@@ -35,25 +35,25 @@ from vsa_gym.physics.parameters import ParameterSet, param
 class DCMotorParams(ParameterSet):
     """Parameters of one DC motor and its amplifier.
 
-    Defaults are the Maxon RE-40 of the vsaUT-II (Table II); use the
-    constructors in the device modules for the other motors.
+    A generic component: the motor's constants have no default (a device package declares its motors as
+    subclasses that set them, with their datasheet source, e.g. :class:`vsa_gym.devices.vsaut2.params.RE40Motor`).
     """
 
-    L: float = param(8.23e-5, symbol="L", unit="H", source="vsaUT-II Table II (RE-40)", tag="paper",
+    L: float = param(symbol="L", unit="H", source="motor datasheet", tag="catalog",
                      lower=0.0, strict_lower=True, doc="armature inductance")
-    R: float = param(0.317, symbol="R", unit="ohm", source="vsaUT-II Table II (RE-40)", tag="paper",
+    R: float = param(symbol="R", unit="ohm", source="motor datasheet", tag="catalog",
                      lower=0.0, strict_lower=True, doc="armature resistance")
-    k_t: float = param(3.02e-2, symbol="k_t", unit="N m/A", source="vsaUT-II Table II (RE-40)",
-                       tag="paper", lower=0.0, strict_lower=True, doc="torque constant")
-    k_e: float = param(3.02e-2, symbol="k_e", unit="V s/rad", source="vsaUT-II Table II (RE-40)",
-                       tag="paper", lower=0.0, strict_lower=True, doc="back-EMF constant")
-    J: float = param(1.38e-5, symbol="J_m", unit="kg m^2", source="vsaUT-II Table II (RE-40)",
-                     tag="paper", lower=0.0, strict_lower=True, doc="rotor inertia")
-    b: float = param(3.0e-6, symbol="b_m", unit="N m s/rad", source="vsaUT-II Table II (RE-40)",
-                     tag="paper", lower=0.0, doc="rotor viscous friction")
-    U_max: float = param(24.0, symbol="U_max", unit="V", source="vsaUT-II Table IV row 17", tag="paper",
+    k_t: float = param(symbol="k_t", unit="N m/A", source="motor datasheet",
+                       tag="catalog", lower=0.0, strict_lower=True, doc="torque constant")
+    k_e: float = param(symbol="k_e", unit="V s/rad", source="motor datasheet",
+                       tag="catalog", lower=0.0, strict_lower=True, doc="back-EMF constant")
+    J: float = param(symbol="J_m", unit="kg m^2", source="motor datasheet",
+                     tag="catalog", lower=0.0, strict_lower=True, doc="rotor inertia")
+    b: float = param(symbol="b_m", unit="N m s/rad", source="motor datasheet",
+                     tag="catalog", lower=0.0, doc="rotor viscous friction")
+    U_max: float = param(symbol="U_max", unit="V", source="amplifier / supply", tag="catalog",
                          lower=0.0, strict_lower=True, doc="supply voltage limit")
-    I_max: float = param(12.0, symbol="I_max", unit="A", source="vsaUT-II Table IV row 19", tag="paper",
+    I_max: float = param(symbol="I_max", unit="A", source="amplifier datasheet", tag="catalog",
                          lower=0.0, strict_lower=True, doc="amplifier current limit")
 
 

@@ -47,20 +47,22 @@ from vsa_gym.physics.parameters import ParameterSet, param
 class LuGreParams(ParameterSet):
     """LuGre friction parameters, at the shaft where ``omega`` is measured.
 
-    Defaults: eLPAS Table 1 (friction at the motor shaft, before the reductor).
+    A generic component: no defaults (a device declares its friction as a subclass that sets them, with their
+    source, e.g. :class:`vsa_gym.devices.elpas.params.ElpasFriction`).
     """
 
-    s0: float = param(15.0, symbol="s_0", unit="N m/rad", source="eLPAS Table 1", tag="paper",
+    s0: float = param(symbol="s_0", unit="N m/rad", source="friction identification of the device", tag="proposed",
                       lower=0.0, strict_lower=True, doc="bristle (presliding) stiffness")
-    s1: float = param(0.1, symbol="s_1", unit="N m s/rad", source="eLPAS Table 1", tag="paper",
+    s1: float = param(symbol="s_1", unit="N m s/rad", source="friction identification of the device", tag="proposed",
                       lower=0.0, doc="bristle damping")
-    s2: float = param(0.0042, symbol="s_2", unit="N m s/rad", source="eLPAS Table 1", tag="paper",
+    s2: float = param(symbol="s_2", unit="N m s/rad", source="friction identification of the device", tag="proposed",
                       lower=0.0, doc="viscous friction coefficient")
-    F_c: float = param(0.2, symbol="F_c", unit="N m", source="eLPAS Table 1", tag="paper",
+    F_c: float = param(symbol="F_c", unit="N m", source="friction identification of the device", tag="proposed",
                        lower=0.0, strict_lower=True, doc="Coulomb friction level")
-    F_s: float = param(0.555, symbol="F_s", unit="N m", source="eLPAS Table 1", tag="paper",
+    F_s: float = param(symbol="F_s", unit="N m", source="friction identification of the device", tag="proposed",
                        lower=0.0, strict_lower=True, doc="static (stiction) friction level")
-    omega_s: float = param(11.8, symbol="omega_s", unit="rad/s", source="eLPAS Table 1", tag="paper",
+    omega_s: float = param(symbol="omega_s", unit="rad/s", source="friction identification of the device",
+                           tag="proposed",
                            lower=0.0, strict_lower=True, doc="Stribeck velocity")
 
 

@@ -42,18 +42,20 @@ from vsa_gym.physics.parameters import ParameterSet, param
 
 @dataclasses.dataclass(frozen=True)
 class GearboxParams(ParameterSet):
-    """Gearhead parameters; defaults are the Maxon GP42C (Table III)."""
+    """Gearhead parameters: a generic component, the ratio, rating, efficiency law and inertia without default (a
+    device package declares its gearheads as subclasses that set them, e.g.
+    :class:`vsa_gym.devices.vsaut2.params.GP42CGearbox`); the two regularisations have numerical defaults."""
 
-    n: float = param(156.0, symbol="n", unit="-", source="vsaUT-II Table III (GP42C)", tag="paper",
+    n: float = param(symbol="n", unit="-", source="gearhead datasheet", tag="catalog",
                      lower=1.0, doc="speed reduction ratio")
-    tau_max: float = param(15.0, symbol="tau_max", unit="N m", source="vsaUT-II Table III (GP42C)",
-                           tag="paper", lower=0.0, strict_lower=True, doc="max continuous output torque")
-    eta_max: float = param(0.72, symbol="eta_max", unit="-", source="vsaUT-II Table III (GP42C)",
-                           tag="paper", lower=0.0, upper=1.0, strict_lower=True, doc="maximum efficiency")
-    alpha: float = param(7.0, symbol="alpha", unit="-", source="vsaUT-II Table III (GP42C)", tag="paper",
+    tau_max: float = param(symbol="tau_max", unit="N m", source="gearhead datasheet",
+                           tag="catalog", lower=0.0, strict_lower=True, doc="max continuous output torque")
+    eta_max: float = param(symbol="eta_max", unit="-", source="gearhead datasheet",
+                           tag="catalog", lower=0.0, upper=1.0, strict_lower=True, doc="maximum efficiency")
+    alpha: float = param(symbol="alpha", unit="-", source="gearhead datasheet", tag="catalog",
                          lower=0.0, strict_lower=True, doc="steepness of the efficiency law")
-    J_in: float = param(9.1e-7, symbol="J_gb", unit="kg m^2", source="vsaUT-II Table III (GP42C)",
-                        tag="paper", lower=0.0, doc="gear inertia at the input shaft")
+    J_in: float = param(symbol="J_gb", unit="kg m^2", source="gearhead datasheet",
+                        tag="catalog", lower=0.0, doc="gear inertia at the input shaft")
     omega_eps: float = param(2.0, symbol="omega_eps", unit="rad/s", source="regularisation of sgn(omega)",
                              tag="numerics", lower=0.0, strict_lower=True,
                              doc="input speed below which the loss direction is blended")

@@ -34,7 +34,7 @@ TAGS: tuple[str, ...] = ("paper", "catalog", "derived", "proposed", "numerics")
 
 
 def param(
-    default: float,
+    default: Any = dataclasses.MISSING,
     *,
     symbol: str,
     unit: str,
@@ -48,7 +48,8 @@ def param(
     """Declare a documented parameter field.
 
     Args:
-        default: default value in SI units.
+        default: default value in SI units; omitted for a generic component's field whose value depends on the
+            device (a device package then declares a subclass that sets it, with the device's source).
         symbol: symbol as written in the papers (e.g. ``"k_t"``).
         unit: SI unit (``"N m/A"``); ``"-"`` for dimensionless.
         source: where the value comes from, e.g. ``"vsaUT-II Table II"``.
@@ -69,6 +70,8 @@ def param(
         "strict_lower": strict_lower,
         "doc": doc,
     }
+    if default is dataclasses.MISSING:
+        return dataclasses.field(metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
 
 
@@ -112,7 +115,7 @@ class ParameterSet:
                     "name": f.name,
                     "symbol": m["symbol"],
                     "unit": m["unit"],
-                    "default": f.default,
+                    "default": None if f.default is dataclasses.MISSING else f.default,
                     "source": m["source"],
                     "tag": m["tag"],
                     "doc": m["doc"],
@@ -125,9 +128,9 @@ class ParameterSet:
         """The parameter table as markdown (used in reports and docs)."""
         lines = ["| name | symbol | unit | default | tag | source |", "|---|---|---|---|---|---|"]
         for r in cls.describe():
+            default = "required" if r["default"] is None else f"{r['default']:.6g}"
             lines.append(
-                f"| `{r['name']}` | {r['symbol']} | {r['unit']} | {r['default']:.6g} | {r['tag']} | "
-                f"{r['source']} |"
+                f"| `{r['name']}` | {r['symbol']} | {r['unit']} | {default} | {r['tag']} | {r['source']} |"
             )
         return "\n".join(lines)
 
@@ -145,6 +148,38 @@ class ParameterSet:
             if isinstance(v, ParameterSet) and v.batch_size is not None:
                 return v.batch_size
         return None
+
+    @classmethod
+    def variant(
+        cls,
+        name: str,
+        module: str,
+        doc: str,
+        values: Mapping[str, float],
+        *,
+        source: str | Mapping[str, str],
+        tag: Tag,
+    ) -> type[Self]:
+        """A subclass of this (generic) component whose fields in ``values`` default to a device's numbers.
+
+        Symbol, unit, bounds and meaning stay the component's; ``source`` (one string, or one per field) and
+        ``tag`` replace its generic provenance, so the device's parameter tables name where each number comes
+        from.  The subclass is named ``name`` in ``module`` (assign it there under that name: pickling finds it)
+        and shares the component's compiled named tuple type (:meth:`as_tuple`).
+        """
+        known = {f.name: f for f in dataclasses.fields(cls) if "symbol" in f.metadata}
+        unknown = sorted(set(values) - set(known))
+        if unknown:
+            raise ValueError(f"{cls.__name__}.variant({name!r}): unknown fields {unknown}; fields: {sorted(known)}")
+        fields = []
+        for key, value in values.items():
+            meta = dict(known[key].metadata)
+            meta["source"] = source if isinstance(source, str) else source[key]
+            meta["tag"] = tag
+            fields.append((key, float, dataclasses.field(default=float(value), metadata=meta)))
+        sub = dataclasses.make_dataclass(name, fields, bases=(cls,), frozen=True, namespace={"__doc__": doc})
+        sub.__module__ = module
+        return sub
 
     def replace(self, **changes: Any) -> Self:
         """A copy with some fields changed (validated)."""
@@ -224,7 +259,7 @@ class ParameterSet:
         Named tuples are what the compiled (numba) kernels take: the physics
         functions read ``p.<field>`` either way, so one implementation serves both.
         """
-        cls = type(self)
+        cls = _field_owner(type(self))
         tuple_cls = _TUPLE_TYPES.get(cls)
         names = [f.name for f in dataclasses.fields(self)
                  if "symbol" in f.metadata or isinstance(getattr(self, f.name), ParameterSet)]
@@ -246,6 +281,21 @@ class ParameterSet:
 
 
 _TUPLE_TYPES: dict[type, Any] = {}
+
+
+def _field_owner(cls: type) -> type:
+    """The most basic class of ``cls``'s MRO with the same fields: a device's subclass that only sets the
+    defaults of a generic component (an ``RE40Motor(DCMotorParams)``) shares the component's named tuple type,
+    so the compiled kernels see one type whatever the device."""
+    names = [f.name for f in dataclasses.fields(cls)]
+    owner = cls
+    for base in cls.__mro__[1:]:
+        if base is ParameterSet or not dataclasses.is_dataclass(base):
+            break
+        if [f.name for f in dataclasses.fields(base)] != names:
+            break
+        owner = base
+    return owner
 
 
 def _nested_type(cls: type, name: str) -> type[ParameterSet] | None:

@@ -25,10 +25,11 @@ from vsa_gym.physics.parameters import ParameterSet, param
 
 @dataclasses.dataclass(frozen=True)
 class IncrementalEncoder(ParameterSet):
-    """Quadrature incremental encoder, eq. (8)."""
+    """Quadrature incremental encoder, eq. (8) of the vsaUT-II paper (a floor quantiser); the resolution has no
+    default (the device's encoder sets it, e.g. :class:`vsa_gym.devices.vsaut2.params.HEDL5540Encoder`)."""
 
-    pulses_per_rev: float = param(2000.0, symbol="N_enc", unit="1/rev", source="vsaUT-II Sec. III-H",
-                                  tag="paper", lower=1.0, doc="pulses per revolution (quadrature)")
+    pulses_per_rev: float = param(symbol="N_enc", unit="1/rev", source="encoder datasheet",
+                                  tag="catalog", lower=1.0, doc="pulses per revolution (quadrature)")
     enabled: bool = True
 
     def measure(self, theta: np.ndarray) -> np.ndarray:
@@ -45,12 +46,13 @@ class IncrementalEncoder(ParameterSet):
 
 @dataclasses.dataclass(frozen=True)
 class AbsoluteEncoder(ParameterSet):
-    """Absolute magnetic encoder (AS5043) with gain-mismatch error."""
+    """Absolute magnetic encoder with gain-mismatch error (a rounding quantiser); resolution and error have no
+    default (the device's encoder sets them, e.g. :class:`vsa_gym.devices.vsaut2.params.AS5043Encoder`)."""
 
-    bits: float = param(10.0, symbol="b", unit="bit", source="vsaUT-II Sec. III-H", tag="paper", lower=1.0,
+    bits: float = param(symbol="b", unit="bit", source="encoder datasheet", tag="catalog", lower=1.0,
                         doc="resolution in bits (0.35 deg/step for 10 bit)")
-    gain_mismatch: float = param(np.deg2rad(0.15), symbol="A_gm", unit="rad", source="vsaUT-II Sec. III-H",
-                                 tag="paper", lower=0.0, doc="amplitude of the gain-mismatch angle error")
+    gain_mismatch: float = param(symbol="A_gm", unit="rad", source="encoder datasheet",
+                                 tag="catalog", lower=0.0, doc="amplitude of the gain-mismatch angle error")
     enabled: bool = True
 
     def measure(self, theta: np.ndarray) -> np.ndarray:

@@ -72,9 +72,11 @@ import dataclasses
 
 import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.physics.dc_motor import DCMotorParams
 from vsa_gym.physics.parameters import ParameterSet, param
+from vsa_gym.physics.steppers import rk4_row_stepper
 
 PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
                            "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b",
@@ -248,6 +250,17 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
         out[3] = a
 
 
+@register_jitable
+def point_rhs(ctx: tuple[np.ndarray, float, float, bool], s: np.ndarray, ds: np.ndarray, pw: np.ndarray) -> None:
+    """The drive's point right-hand side in the steppers' contract (:mod:`vsa_gym.physics.steppers`):
+    ``ctx = (P_row, u, f_ext, two_mass)``; no power channels."""
+    P, u, fext, two_mass = ctx
+    _rhs(P, s, u, fext, two_mass, ds)
+
+
+rk4_row = rk4_row_stepper(point_rhs)
+
+
 @numba.njit(cache=True)
 def _transmitted(P: np.ndarray, s: np.ndarray, u: float, two_mass: bool) -> float:
     """Force the drive delivers to the load (N), for the ``force`` observable."""
@@ -291,10 +304,9 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
     T = u.shape[0]
     y = np.empty((T, n, 5))
     h = dt / n_sub
-    k1 = np.empty(N_STATE)
-    k2 = np.empty(N_STATE)
-    k3 = np.empty(N_STATE)
-    k4 = np.empty(N_STATE)
+    ks = np.empty((4, N_STATE))  # the RK4 stages
+    pw = np.empty((4, 0))  # no power channels
+    e_none = np.empty(0)
     tmp = np.empty(N_STATE)
     xs = np.empty(T)
     ix = 2 if ctrl[4] == 1.0 else 0
@@ -324,19 +336,7 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
             y[k, i, 3] = _transmitted(Pi, s, uk, two_mass)
             y[k, i, 4] = uk
             fk = fext[k]
-            for _ in range(n_sub):
-                _rhs(Pi, s, uk, fk, two_mass, k1)
-                for j in range(N_STATE):
-                    tmp[j] = s[j] + 0.5 * h * k1[j]
-                _rhs(Pi, tmp, uk, fk, two_mass, k2)
-                for j in range(N_STATE):
-                    tmp[j] = s[j] + 0.5 * h * k2[j]
-                _rhs(Pi, tmp, uk, fk, two_mass, k3)
-                for j in range(N_STATE):
-                    tmp[j] = s[j] + h * k3[j]
-                _rhs(Pi, tmp, uk, fk, two_mass, k4)
-                for j in range(N_STATE):
-                    s[j] = s[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+            rk4_row((Pi, uk, fk, two_mass), s, h, n_sub, ks, pw, tmp, e_none)
     return y
 
 

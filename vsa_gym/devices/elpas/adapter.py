@@ -56,12 +56,11 @@ from vsa_gym.devices.elpas.cone import spring_unchecked
 from vsa_gym.devices.elpas.current_loop import ElpasCurrentLoop, current_loop_rows, loop_steps
 from vsa_gym.devices.elpas.effects import LIBRARY as ELPAS_LIBRARY
 from vsa_gym.devices.elpas.packing import params_tuple, tuple_matrix
-from vsa_gym.devices.elpas.params import ElpasParams
+from vsa_gym.devices.elpas.params import ElpasAlphaEncoder, ElpasMotorEncoder, ElpasParams
 from vsa_gym.identify.adapters import Adapter, Theta, theta_column
 from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record
-from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 #: ``model.params`` of the sidecar: overrides of the nominal parameters, ``"group.field": value``
 PARAM_GROUPS = ("motor", "friction", "drive", "cone")
@@ -112,8 +111,8 @@ class ElpasAdapter(Adapter):
         self.alpha = record.input("alpha")
         self.loop = ElpasCurrentLoop()
         self.n_inner, self.h, self.n_sub = loop_steps(self.dt)
-        self.motor_encoder = IncrementalEncoder()
-        self.alpha_encoder = AbsoluteEncoder(bits=12.0, gain_mismatch=0.0)
+        self.motor_encoder = ElpasMotorEncoder()
+        self.alpha_encoder = ElpasAlphaEncoder()
         init = record.meta.get("initial_state", {})
         g0 = init.get("gamma")
         if g0 is None and "gamma" in record.outputs:

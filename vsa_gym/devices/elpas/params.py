@@ -2,7 +2,7 @@
 
 The classes nest: :class:`ElpasParams` holds the motor (:class:`DCMotorParams`
 built with the eLPAS Table 1 numbers), the LuGre friction at the motor shaft
-(:class:`LuGreParams`), the reductor and inertias (:class:`DriveParams`), the
+(:class:`LuGreParams`, as :data:`ElpasFriction`), the reductor and inertias (:class:`DriveParams`), the
 3-D cone geometry (:class:`ConeGeometry`) and the quarter-car / cabin corner
 (:class:`QuarterCarParams`).  Every field is documented (symbol, SI unit,
 source, tag); any field may be an ``(n,)`` array to batch ``n`` devices.
@@ -17,6 +17,7 @@ import numpy as np
 from vsa_gym.physics.dc_motor import DCMotorParams
 from vsa_gym.physics.friction import LuGreParams
 from vsa_gym.physics.parameters import ParameterSet, param
+from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 GRAVITY = 9.81
 """Gravitational acceleration (m/s^2) used by the vehicle model."""
@@ -31,6 +32,19 @@ def elpas_motor() -> DCMotorParams:
     friction of motor and reductor is the LuGre ``s_2``.
     """
     return ElpasMotorParams()
+
+
+ElpasMotorEncoder = IncrementalEncoder.variant(
+    "ElpasMotorEncoder", __name__, "The motor's quadrature encoder: 2000 pulses/rev (proposed; the eLPAS paper names "
+    "no encoder, this is the vsaUT-II's HEDL 5540).",
+    {"pulses_per_rev": 2000.0}, source="proposed (eLPAS paper silent; vsaUT-II Sec. III-H encoder)", tag="proposed")
+ElpasAlphaEncoder = AbsoluteEncoder.variant(
+    "ElpasAlphaEncoder", __name__, "The absolute encoder of the cone angle alpha: 12 bit, no gain mismatch (proposed).",
+    {"bits": 12.0, "gain_mismatch": 0.0}, source="proposed (eLPAS paper silent)", tag="proposed")
+ElpasFriction = LuGreParams.variant(
+    "ElpasFriction", __name__, "LuGre friction of the eLPAS at the motor shaft, before the reductor (eLPAS Table 1).",
+    {"s0": 15.0, "s1": 0.1, "s2": 0.0042, "F_c": 0.2, "F_s": 0.555, "omega_s": 11.8},
+    source="eLPAS Table 1", tag="paper")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -149,7 +163,7 @@ class ElpasParams(ParameterSet):
     """The whole eLPAS device (actuator + optional vehicle corner)."""
 
     motor: DCMotorParams = dataclasses.field(default_factory=elpas_motor)
-    friction: LuGreParams = dataclasses.field(default_factory=LuGreParams)
+    friction: LuGreParams = dataclasses.field(default_factory=ElpasFriction)
     drive: DriveParams = dataclasses.field(default_factory=DriveParams)
     cone: ConeGeometry = dataclasses.field(default_factory=ConeGeometry)
     car: QuarterCarParams = dataclasses.field(default_factory=QuarterCarParams)

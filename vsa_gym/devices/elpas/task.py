@@ -35,7 +35,7 @@ from numba.extending import register_jitable
 from vsa_gym.devices.elpas import model as em
 from vsa_gym.devices.elpas.cone import spring_unchecked
 from vsa_gym.devices.elpas.current_loop import CURRENT_LOOP_DT, SUBSTEP_MAX, ElpasCurrentLoop, current_loop_row
-from vsa_gym.devices.elpas.params import ElpasParams, NumericsParams
+from vsa_gym.devices.elpas.params import ElpasAlphaEncoder, ElpasMotorEncoder, ElpasParams, NumericsParams
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
 from vsa_gym.envs.task import (
@@ -46,7 +46,6 @@ from vsa_gym.envs.task import (
     RegenPolicy,
     clip_obs_row,
 )
-from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 # entries of the drive configuration array ``ElpasTask._cfg`` read by the compiled step
 (C_DT, C_H, C_N_INNER, C_N_SUB, C_CURRENT_MODE, C_P_M, C_I_M, C_I_M_MAX, C_I_NOM, C_V_GAIN, C_ENC_MOTOR,
@@ -116,8 +115,8 @@ class ElpasTask(CompiledStepTask):
         self.loop = ElpasCurrentLoop() if current_loop is None else current_loop
         self.i_nominal, self.i2t_trip_s = float(i_nominal), float(i2t_trip_s)
         self.v_gain = lowpass_gain(velocity_cutoff_hz, self.control_dt)
-        self.motor_encoder = IncrementalEncoder()
-        self.alpha_encoder = AbsoluteEncoder(bits=12.0, gain_mismatch=0.0)
+        self.motor_encoder = ElpasMotorEncoder()
+        self.alpha_encoder = ElpasAlphaEncoder()
         n_ = self.n
         width = em.N_VEHICLE if self.vehicle else em.N_RIG
         self.s["x"] = np.zeros((n_, width))

@@ -39,13 +39,12 @@ import numpy as np
 
 from vsa_gym.devices.vsaut2.effects import LIBRARY as VSAUT2_LIBRARY
 from vsa_gym.devices.vsaut2.model import N_STATES, STATE, SUBSTEPS_PER_MS, VsaUT2Model, rk4_rows
-from vsa_gym.devices.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.params import AS5043Encoder, VsaUT2Params
 from vsa_gym.identify.adapters import Adapter, Theta, theta_column
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record
 from vsa_gym.physics.kernels import flatten_rows
-from vsa_gym.physics.sensors import AbsoluteEncoder
 
 OUTPUT_STATE = {"r": STATE["r"], "q2": STATE["q2"], "i2": STATE["i2"]}
 MODES = ("voltage", "current", "hold")
@@ -161,7 +160,7 @@ class Vsaut2Adapter(Adapter):
             if s.quantity == "tau_out":
                 raise ValueError("vsaut2 adapter: tau_out outputs are not replayed; use r, q2, phi or i2")
             self.obs.append("q2_motor" if (s.quantity == "q2" and at == "motor") else s.quantity)
-        self.r_sensor = AbsoluteEncoder() if str(model.get("r_sensor", "")).upper() == "AS5043" else None
+        self.r_sensor = AS5043Encoder() if str(model.get("r_sensor", "")).upper() == "AS5043" else None
         self.frame_actuated = self.mode in (1,) or bool(np.any(self.u[:, 1] != 0.0))
         self.joint = "frame" if self.frame_actuated else "output"
         self.n_sub = max(1, int(round(self.dt / 1e-3 * SUBSTEPS_PER_MS)))

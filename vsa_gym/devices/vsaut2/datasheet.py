@@ -15,11 +15,10 @@ import numpy as np
 from vsa_gym.devices.vsaut2 import experiments as ex
 from vsa_gym.devices.vsaut2.calibration import stiffness_variation_time
 from vsa_gym.devices.vsaut2.model import STATE, VsaUT2Model
-from vsa_gym.devices.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.params import AS5043Encoder, VsaUT2Params
 from vsa_gym.devices.vsaut2.statics import static_output_stiffness
 from vsa_gym.physics.dc_motor import steady_state_speed
 from vsa_gym.physics.gearbox import efficiency
-from vsa_gym.physics.sensors import AbsoluteEncoder
 
 
 def _forward_input_torque(model: VsaUT2Model, tau_out_gearbox: float) -> float:
@@ -116,7 +115,7 @@ def compute(params: VsaUT2Params | None = None) -> list[dict[str, Any]]:
     add("Maximum Deflection: min. stiffness", "deg", 40.1, float(np.rad2deg(p.lever.phi_max)),
         "deflection end stop at K_min (by construction)")
     add("Active Rotation Angle", "deg", 28.6, float(np.rad2deg(p.q2_max)), "frame end stops (by construction)")
-    add("Angular Resolution", "deg", 0.35, float(np.rad2deg(AbsoluteEncoder().resolution)),
+    add("Angular Resolution", "deg", 0.35, float(np.rad2deg(AS5043Encoder().resolution)),
         "10-bit output encoder step")
     add("Weight", "kg", 2.5, None, "not modelled: the model has inertias, not masses")
     add("Nominal Voltage", "V", 24.0, float(p.frame_motor.U_max), "supply voltage parameter")

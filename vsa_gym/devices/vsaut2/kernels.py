@@ -9,12 +9,14 @@ from typing import Any
 
 import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.devices.vsaut2.equations import rhs_row
 from vsa_gym.devices.vsaut2.layout import ETD_STIFF, N_POWER, N_STATES, Derived
 from vsa_gym.devices.vsaut2.params import VsaUT2Params
 from vsa_gym.physics.integrate import etdrk4_weights
 from vsa_gym.physics.kernels import row_reader
+from vsa_gym.physics.steppers import etd_row_stepper, rk4_row_stepper
 
 
 def _rhs_rows_py(x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -26,10 +28,23 @@ def _rhs_rows_py(x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any) 
     return dx, pw
 
 
+@register_jitable
+def point_rhs(ctx: tuple[Any, Any, float, float, float], y: np.ndarray, dy: np.ndarray, pw: np.ndarray) -> None:
+    """The vsaUT-II's point right-hand side in the steppers' contract (:mod:`vsa_gym.physics.steppers`):
+    ``ctx = (p, d, u_1, u_2, tau_ext)``, one row's parameters, derived constants and held inputs."""
+    p, d, u_1, u_2, te = ctx
+    rhs_row(p, d, y, u_1, u_2, te, dy, pw)
+
+
+rk4_row = rk4_row_stepper(point_rhs)
+etd_row = etd_row_stepper(point_rhs, ETD_STIFF)
+
+
 def _rk4_rows_py(
     x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any, dt: float, n_sub: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`vsa_gym.physics.integrate.rk4` over :func:`rhs_point`, row by row with floats (no extensions).
+    """:func:`vsa_gym.physics.integrate.rk4` over :func:`rhs_row`, row by row with floats (no extensions): the
+    generic :func:`~vsa_gym.physics.steppers.rk4_row_stepper` over :func:`point_rhs`.
 
     The arithmetic of each element is that of the numpy ``rk4`` (same operations, same order).
     """
@@ -38,29 +53,12 @@ def _rk4_rows_py(
     x_new = np.empty((n, N_STATES))
     energy = np.zeros((n, N_POWER))
     for i in numba.prange(n):
-        p = P_ROW(P, i)
-        d = D_ROW(D, i)
-        u_1, u_2, te = u[i, 0], u[i, 1], tau[i]
         y = x[i].copy()
         yt = np.empty(N_STATES)
         k = np.empty((4, N_STATES))
         q = np.empty((4, N_POWER))
         e = np.zeros(N_POWER)
-        for _ in range(n_sub):
-            rhs_row(p, d, y, u_1, u_2, te, k[0], q[0])
-            for j in range(N_STATES):
-                yt[j] = y[j] + 0.5 * h * k[0, j]
-            rhs_row(p, d, yt, u_1, u_2, te, k[1], q[1])
-            for j in range(N_STATES):
-                yt[j] = y[j] + 0.5 * h * k[1, j]
-            rhs_row(p, d, yt, u_1, u_2, te, k[2], q[2])
-            for j in range(N_STATES):
-                yt[j] = y[j] + h * k[2, j]
-            rhs_row(p, d, yt, u_1, u_2, te, k[3], q[3])
-            for j in range(N_STATES):
-                y[j] = y[j] + (h / 6.0) * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
-            for j in range(N_POWER):
-                e[j] = e[j] + (h / 6.0) * (q[0, j] + 2.0 * q[1, j] + 2.0 * q[2, j] + q[3, j])
+        rk4_row((P_ROW(P, i), D_ROW(D, i), u[i, 0], u[i, 1], tau[i]), y, h, n_sub, k, q, yt, e)
         x_new[i] = y
         energy[i] = e
     return x_new, energy
@@ -69,7 +67,8 @@ def _rk4_rows_py(
 def _etd_rows_py(
     x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any, dt: float, n_sub: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`vsa_gym.physics.integrate.exponential_rk4` over :func:`rhs_point`, row by row (no extensions).
+    """:func:`vsa_gym.physics.integrate.exponential_rk4` over :func:`rhs_row`, row by row (no extensions): the
+    generic :func:`~vsa_gym.physics.steppers.etd_row_stepper` over :func:`point_rhs`.
 
     Stiff columns :data:`ETD_STIFF` (the currents) with the constant rates ``R/L`` of the row's
     motors; the weights are those of the numpy step (``etdrk4_weights``), the stages the same
@@ -86,14 +85,12 @@ def _etd_rows_py(
     shared = P.shape[0] == 1
     for i in numba.prange(n):
         p = P_ROW(P, i)
-        d = D_ROW(D, i)
-        u_1, u_2, te = u[i, 0], u[i, 1], tau[i]
         if shared:
             lam = lam0
-            e_half, w_half, e_full, f_u, f_ab, f_c = w0
+            w = w0
         else:
             lam = np.array([p.pivot_motor.R / p.pivot_motor.L, p.frame_motor.R / p.frame_motor.L])
-            e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)  # constant over the step
+            w = etdrk4_weights(lam, h)  # constant over the step
         y = x[i].copy()
         ya = np.empty(N_STATES)
         yb = np.empty(N_STATES)
@@ -102,42 +99,7 @@ def _etd_rows_py(
         q = np.empty((4, N_POWER))
         nl = np.empty((4, 2))
         e = np.zeros(N_POWER)
-        for _ in range(n_sub):
-            rhs_row(p, d, y, u_1, u_2, te, k[0], q[0])
-            for j in range(N_STATES):
-                ya[j] = y[j] + 0.5 * h * k[0, j]
-            for s in range(2):
-                c = ETD_STIFF[s]
-                nl[0, s] = k[0, c] + lam[s] * y[c]
-                ya[c] = e_half[s] * y[c] + w_half[s] * nl[0, s]
-            rhs_row(p, d, ya, u_1, u_2, te, k[1], q[1])
-            for j in range(N_STATES):
-                yb[j] = y[j] + 0.5 * h * k[1, j]
-            for s in range(2):
-                c = ETD_STIFF[s]
-                nl[1, s] = k[1, c] + lam[s] * ya[c]
-                yb[c] = e_half[s] * y[c] + w_half[s] * nl[1, s]
-            rhs_row(p, d, yb, u_1, u_2, te, k[2], q[2])
-            for j in range(N_STATES):
-                yc[j] = y[j] + h * k[2, j]
-            for s in range(2):
-                c = ETD_STIFF[s]
-                nl[2, s] = k[2, c] + lam[s] * yb[c]
-                yc[c] = e_half[s] * ya[c] + w_half[s] * (2.0 * nl[2, s] - nl[0, s])
-            rhs_row(p, d, yc, u_1, u_2, te, k[3], q[3])
-            for s in range(2):
-                c = ETD_STIFF[s]
-                nl[3, s] = k[3, c] + lam[s] * yc[c]
-            for s in range(2):  # the stiff columns' update uses y at the start of the substep
-                c = ETD_STIFF[s]
-                ya[c] = e_full[s] * y[c] + h * (f_u[s] * nl[0, s] + f_ab[s] * (nl[1, s] + nl[2, s])
-                                                 + f_c[s] * nl[3, s])
-            for j in range(N_STATES):
-                y[j] = y[j] + (h / 6.0) * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
-            for s in range(2):
-                y[ETD_STIFF[s]] = ya[ETD_STIFF[s]]
-            for j in range(N_POWER):
-                e[j] = e[j] + (h / 6.0) * (q[0, j] + 2.0 * q[1, j] + 2.0 * q[2, j] + q[3, j])
+        etd_row((p, D_ROW(D, i), u[i, 0], u[i, 1], tau[i]), y, h, n_sub, lam, w, k, q, ya, yb, yc, nl, e)
         x_new[i] = y
         energy[i] = e
     return x_new, energy

@@ -17,27 +17,60 @@ from vsa_gym.devices.vsaut2.pivot import PivotParams, sun_angle_for
 from vsa_gym.physics.dc_motor import DCMotorParams
 from vsa_gym.physics.gearbox import GearboxParams
 from vsa_gym.physics.parameters import ParameterSet, param
+from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
+
+_AMPLIFIER = {"U_max": "vsaUT-II Table IV row 17", "I_max": "vsaUT-II Table IV row 19"}
+
+RE20Motor = DCMotorParams.variant(
+    "RE20Motor", __name__, "Pivot motor, Maxon RE-20 (vsaUT-II Table II; the paper's text names an RE-25, Table II "
+    "is used), on the 24 V / 12 A amplifier of Table IV.",
+    {"L": 2.38e-4, "R": 2.19, "k_t": 2.34e-2, "k_e": 2.34e-2, "J": 1.07e-6, "b": 6.4e-6, "U_max": 24.0,
+     "I_max": 12.0},
+    source={**dict.fromkeys(("L", "R", "k_t", "k_e", "J", "b"), "vsaUT-II Table II (RE-20)"), **_AMPLIFIER},
+    tag="paper")
+RE40Motor = DCMotorParams.variant(
+    "RE40Motor", __name__, "Frame motor, Maxon RE-40 (vsaUT-II Table II), on the 24 V / 12 A amplifier of Table IV.",
+    {"L": 8.23e-5, "R": 0.317, "k_t": 3.02e-2, "k_e": 3.02e-2, "J": 1.38e-5, "b": 3.0e-6, "U_max": 24.0,
+     "I_max": 12.0},
+    source={**dict.fromkeys(("L", "R", "k_t", "k_e", "J", "b"), "vsaUT-II Table II (RE-40)"), **_AMPLIFIER},
+    tag="paper")
+GP26BGearbox = GearboxParams.variant(
+    "GP26BGearbox", __name__, "Pivot gearhead, Maxon GP26B (vsaUT-II Table III).",
+    {"n": 84.0, "tau_max": 1.3, "eta_max": 0.59, "alpha": 7.0, "J_in": 4e-8},
+    source="vsaUT-II Table III (GP26B)", tag="paper")
+GP42CGearbox = GearboxParams.variant(
+    "GP42CGearbox", __name__, "Frame gearhead, Maxon GP42C (vsaUT-II Table III).",
+    {"n": 156.0, "tau_max": 15.0, "eta_max": 0.72, "alpha": 7.0, "J_in": 9.1e-7},
+    source="vsaUT-II Table III (GP42C)", tag="paper")
+
+
+HEDL5540Encoder = IncrementalEncoder.variant(
+    "HEDL5540Encoder", __name__, "The motors' quadrature encoders (HEDL 5540, 2000 pulses/rev; vsaUT-II Sec. III-H).",
+    {"pulses_per_rev": 2000.0}, source="vsaUT-II Sec. III-H", tag="paper")
+AS5043Encoder = AbsoluteEncoder.variant(
+    "AS5043Encoder", __name__, "The output's absolute magnetic encoder (AS5043, 10 bit, +-0.15 deg gain mismatch; "
+    "vsaUT-II Sec. III-H).",
+    {"bits": 10.0, "gain_mismatch": float(np.deg2rad(0.15))}, source="vsaUT-II Sec. III-H", tag="paper")
 
 
 def re20_motor() -> DCMotorParams:
-    """Pivot motor, Table II "RE-20" column (the paper names an RE-25; Table II is used)."""
-    return DCMotorParams(L=2.38e-4, R=2.19, k_t=2.34e-2, k_e=2.34e-2, J=1.07e-6, b=6.4e-6,
-                         U_max=24.0, I_max=12.0)
+    """Pivot motor: :class:`RE20Motor` with its defaults."""
+    return RE20Motor()
 
 
 def re40_motor() -> DCMotorParams:
-    """Frame motor, Maxon RE-40 (Table II)."""
-    return DCMotorParams()
+    """Frame motor: :class:`RE40Motor` with its defaults."""
+    return RE40Motor()
 
 
 def gp26b_gearbox() -> GearboxParams:
-    """Pivot gearhead, Maxon GP26B (Table III)."""
-    return GearboxParams(n=84.0, tau_max=1.3, eta_max=0.59, alpha=7.0, J_in=4e-8)
+    """Pivot gearhead: :class:`GP26BGearbox` with its defaults."""
+    return GP26BGearbox()
 
 
 def gp42c_gearbox() -> GearboxParams:
-    """Frame gearhead, Maxon GP42C (Table III)."""
-    return GearboxParams()
+    """Frame gearhead: :class:`GP42CGearbox` with its defaults."""
+    return GP42CGearbox()
 
 
 @dataclasses.dataclass(frozen=True)

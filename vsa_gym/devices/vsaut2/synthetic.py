@@ -31,12 +31,11 @@ import pandas as pd
 from vsa_gym.devices.vsaut2.adapter import Vsaut2Adapter
 from vsa_gym.devices.vsaut2.effects import LIBRARY as VSAUT2_LIBRARY
 from vsa_gym.devices.vsaut2.lever import pivot_for_stiffness
-from vsa_gym.devices.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.params import AS5043Encoder, HEDL5540Encoder, VsaUT2Params
 from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.library import main_parameters, signed_effects, synthetic_ranges
 from vsa_gym.identify.record import FORMAT, Record, load_record, write_record
 from vsa_gym.identify.recovery import SyntheticBench
-from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 EXPERIMENTS: tuple[str, ...] = ("free_oscillation", "constant_current", "torque_sweep")
 
@@ -57,8 +56,8 @@ NOISE_COUNTS = 0.3
 def experiment_meta(experiment: str, params: VsaUT2Params | None = None) -> tuple[dict[str, Any], pd.DataFrame]:
     """Sidecar and input table (outputs zero) of one experiment."""
     p = VsaUT2Params() if params is None else params
-    as5043 = AbsoluteEncoder()
-    hedl = IncrementalEncoder()
+    as5043 = AS5043Encoder()
+    hedl = HEDL5540Encoder()
     r_out = {"quantity": "r", "unit": "rad", "sensor": "AS5043 10 bit", "quantizer": "round",
              "resolution": float(as5043.resolution)}
     q2_out = {"quantity": "q2", "unit": "rad", "sensor": "HEDL 5540 via GP42C and belt", "at": "motor",

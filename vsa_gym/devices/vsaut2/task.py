@@ -61,7 +61,7 @@ from vsa_gym.devices.vsaut2.model import (
     rk4_rows,
     rk4_rows_parallel,
 )
-from vsa_gym.devices.vsaut2.params import VsaUT2Params
+from vsa_gym.devices.vsaut2.params import AS5043Encoder, HEDL5540Encoder, VsaUT2Params
 from vsa_gym.devices.vsaut2.pivot import pivot_position
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
@@ -73,7 +73,6 @@ from vsa_gym.envs.task import (
     RegenPolicy,
 )
 from vsa_gym.physics.dc_motor import current_control_voltage
-from vsa_gym.physics.sensors import AbsoluteEncoder, IncrementalEncoder
 
 CURRENT_LOOP_DT = 1e-4  # s, 10 kHz current loop in current mode
 K_FLOOR = 0.1  # N m/rad, floor of the stiffness before taking its log (eq. 6 turns negative past 45 deg)
@@ -155,8 +154,8 @@ class VsaUT2Task(CompiledStepTask):
         self.i_nominal = float(i_nominal)
         self.i2t_trip_s = float(i2t_trip_s)
         self.v_gain = lowpass_gain(velocity_cutoff_hz, self.control_dt)
-        self.motor_encoder = IncrementalEncoder()
-        self.output_encoder = AbsoluteEncoder()
+        self.motor_encoder = HEDL5540Encoder()
+        self.output_encoder = AS5043Encoder()
         # the encoders' quantisers as numbers for the compiled sensing (step 0: encoder disabled, exact angle)
         me, oe = self.motor_encoder, self.output_encoder
         self._enc = np.array([me.resolution if me.enabled else 0.0, oe.resolution if oe.enabled else 0.0,

@@ -1,0 +1,124 @@
+"""Generic compiled row steppers: classical RK4 and exponential RK4 (ETDRK4) over a device's point right-hand side.
+
+The device contract is one *point right-hand side*::
+
+    rhs(ctx, y, dy, pw) -> None
+
+``y`` ``(n_states,)`` is one row's state, ``ctx`` whatever the device needs held over the step (its parameter
+row, held inputs, ...: a tuple, passed through untouched), ``dy`` ``(n_states,)`` receives ``dy/dt`` and ``pw``
+``(n_power,)`` the instantaneous power channels (``n_power`` may be 0).  ``rhs`` must be jitable
+(``numba.extending.register_jitable`` or ``numba.njit``); the steppers are built once per device by
+:func:`rk4_row_stepper` / :func:`etd_row_stepper` and are jitable themselves, so a device's compiled row loop
+(serial, ``prange`` or, later, a GPU kernel) calls them per row, and with ``NUMBA_DISABLE_JIT=1`` the same code
+runs as plain Python for debugging.
+
+The arithmetic is that of :func:`vsa_gym.physics.integrate.rk4` and
+:func:`vsa_gym.physics.integrate.exponential_rk4` (same operations in the same order), so the batched numpy
+reference and the compiled rows agree to round-off; the weights come from
+:func:`vsa_gym.physics.integrate.etdrk4_weights`.
+
+Scratch arrays are the caller's (allocating small arrays per row costs more than the arithmetic): see the
+``Args`` of the returned functions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numba.extending import register_jitable
+
+PointRhs = Callable[[Any, np.ndarray, np.ndarray, np.ndarray], None]
+
+
+def rk4_row_stepper(rhs: PointRhs) -> Callable[..., None]:
+    """The classical RK4 stepper of one row over ``rhs`` (see the module docstring for the contract).
+
+    Returns ``rk4_row(ctx, y, h, n_sub, k, q, yt, e)``: ``n_sub`` substeps of length ``h`` applied to ``y`` in
+    place, each substep's energy (the RK4 quadrature of the power channels) added to ``e`` ``(n_power,)``.
+    Scratch: ``k`` ``(4, n_states)``, ``q`` ``(4, n_power)``, ``yt`` ``(n_states,)``.
+    """
+
+    @register_jitable
+    def rk4_row(ctx: Any, y: np.ndarray, h: float, n_sub: int, k: np.ndarray, q: np.ndarray, yt: np.ndarray,
+                e: np.ndarray) -> None:
+        nx = y.shape[0]
+        npw = e.shape[0]
+        for _ in range(n_sub):
+            rhs(ctx, y, k[0], q[0])
+            for j in range(nx):
+                yt[j] = y[j] + 0.5 * h * k[0, j]
+            rhs(ctx, yt, k[1], q[1])
+            for j in range(nx):
+                yt[j] = y[j] + 0.5 * h * k[1, j]
+            rhs(ctx, yt, k[2], q[2])
+            for j in range(nx):
+                yt[j] = y[j] + h * k[2, j]
+            rhs(ctx, yt, k[3], q[3])
+            for j in range(nx):
+                y[j] = y[j] + (h / 6.0) * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
+            for j in range(npw):
+                e[j] = e[j] + (h / 6.0) * (q[0, j] + 2.0 * q[1, j] + 2.0 * q[2, j] + q[3, j])
+
+    return rk4_row
+
+
+def etd_row_stepper(rhs: PointRhs, stiff: tuple[int, ...]) -> Callable[..., None]:
+    """The exponential RK4 stepper (Cox & Matthews 2002) of one row over ``rhs``, with a stiff linear decay
+    ``dy_c/dt = -lam_s y_c + N_s(y)`` on the columns ``c = stiff[s]``.
+
+    Returns ``etd_row(ctx, y, h, n_sub, lam, w, k, q, ya, yb, yc, nl, e)``: ``n_sub`` substeps of ``h`` applied to
+    ``y`` in place with the decay rates ``lam`` ``(len(stiff),)`` (1/s) held over the call and their weights
+    ``w = etdrk4_weights(lam, h)`` (computed by the caller, once when they are shared by many rows); the stiff
+    columns are integrated exactly in their linear part, the others by classical RK4, the power channels by the
+    RK4 quadrature, added to ``e``.  Scratch: ``k`` ``(4, n_states)``, ``q`` ``(4, n_power)``, ``ya``, ``yb``,
+    ``yc`` ``(n_states,)``, ``nl`` ``(4, len(stiff))``.
+    """
+    n_stiff = len(stiff)
+
+    @register_jitable
+    def etd_row(ctx: Any, y: np.ndarray, h: float, n_sub: int, lam: np.ndarray, w: Any, k: np.ndarray,
+                q: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray, nl: np.ndarray,
+                e: np.ndarray) -> None:
+        e_half, w_half, e_full, f_u, f_ab, f_c = w
+        nx = y.shape[0]
+        npw = e.shape[0]
+        for _ in range(n_sub):
+            rhs(ctx, y, k[0], q[0])
+            for j in range(nx):
+                ya[j] = y[j] + 0.5 * h * k[0, j]
+            for s in range(n_stiff):
+                c = stiff[s]
+                nl[0, s] = k[0, c] + lam[s] * y[c]
+                ya[c] = e_half[s] * y[c] + w_half[s] * nl[0, s]
+            rhs(ctx, ya, k[1], q[1])
+            for j in range(nx):
+                yb[j] = y[j] + 0.5 * h * k[1, j]
+            for s in range(n_stiff):
+                c = stiff[s]
+                nl[1, s] = k[1, c] + lam[s] * ya[c]
+                yb[c] = e_half[s] * y[c] + w_half[s] * nl[1, s]
+            rhs(ctx, yb, k[2], q[2])
+            for j in range(nx):
+                yc[j] = y[j] + h * k[2, j]
+            for s in range(n_stiff):
+                c = stiff[s]
+                nl[2, s] = k[2, c] + lam[s] * yb[c]
+                yc[c] = e_half[s] * ya[c] + w_half[s] * (2.0 * nl[2, s] - nl[0, s])
+            rhs(ctx, yc, k[3], q[3])
+            for s in range(n_stiff):
+                c = stiff[s]
+                nl[3, s] = k[3, c] + lam[s] * yc[c]
+            for s in range(n_stiff):  # the stiff columns' update uses y at the start of the substep
+                c = stiff[s]
+                ya[c] = e_full[s] * y[c] + h * (f_u[s] * nl[0, s] + f_ab[s] * (nl[1, s] + nl[2, s])
+                                                + f_c[s] * nl[3, s])
+            for j in range(nx):
+                y[j] = y[j] + (h / 6.0) * (k[0, j] + 2.0 * k[1, j] + 2.0 * k[2, j] + k[3, j])
+            for s in range(n_stiff):
+                y[stiff[s]] = ya[stiff[s]]
+            for j in range(npw):
+                e[j] = e[j] + (h / 6.0) * (q[0, j] + 2.0 * q[1, j] + 2.0 * q[2, j] + q[3, j])
+
+    return etd_row
