@@ -44,7 +44,7 @@ def test_every_problem_is_named(tmp_path):
     text = "\n".join(problems)
     assert "missing column 'x'" in text
     assert "not strictly increasing at row 10" in text
-    assert "column 'u': 1 NaN" in text
+    assert "column 'u': 1 NaN / empty value(s), first at row 5" in text
     assert "wrong unit 'mV' for 'voltage'" in text
     assert "'alpha' is not an input of device 'drive'" in text
     assert len(problems) == 5
@@ -66,3 +66,24 @@ def test_shipped_records_pass_the_checker():
     for name in ("emps",):
         fit, test = resolve(name)
         assert check_record(fit) == [] and check_record(test) == []
+
+
+def test_infinite_and_text_values_are_named_as_such(tmp_path):
+    path, table, _ = _good(tmp_path)
+    bad = table.astype(object)
+    bad.loc[7, "u"] = np.inf
+    bad.loc[9, "x"] = "n/a?"
+    bad.to_csv(path, index=False)
+    text = "\n".join(check_record(path))
+    assert "column 'u': 1 infinite value(s), first at row 7" in text
+    assert "column 'x': 1 non-numeric value(s), first at row 9" in text
+    assert "NaN" not in text
+
+
+def test_missing_file_and_mistyped_shipped_name(tmp_path, capsys):
+    missing = tmp_path / "my.csv"
+    assert check_record(missing) == [f"file not found: {missing}"]
+    assert main(["identify", str(missing)]) != 0
+    assert "file not found" in capsys.readouterr().err
+    (problem,) = check_record("emsp")
+    assert "file not found: emsp" in problem and "did you mean emps?" in problem and "ced-1" in problem

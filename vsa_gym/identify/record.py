@@ -15,6 +15,7 @@ split into fit / validation / test parts.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import json
 from collections.abc import Mapping
 from pathlib import Path
@@ -132,6 +133,25 @@ def sidecar_path(path: str | Path) -> Path:
     return p.with_suffix(".json")
 
 
+def missing_file_message(path: Path) -> str:
+    """``file not found``, and the shipped names when ``path`` looks like a mistyped one (no folder, no suffix)."""
+    msg = f"file not found: {path}"
+    if path.parent == Path(".") and not path.suffix:
+        close = difflib.get_close_matches(path.name.lower(), list(SHIPPED), n=3, cutoff=0.5)
+        hint = f"did you mean {' or '.join(close)}? " if close else ""
+        msg += f" (not a shipped record name either: {hint}shipped names are {', '.join(SHIPPED)})"
+    return msg
+
+
+def non_finite_summary(raw: pd.Series, values: np.ndarray) -> str:
+    """How many values of a column are NaN or missing, infinite, or not numbers, each with its first row."""
+    numeric = pd.to_numeric(raw, errors="coerce").notna().to_numpy() | raw.isna().to_numpy()
+    kinds = (("infinite", np.isinf(values)), ("NaN / empty", np.isnan(values) & raw.isna().to_numpy()),
+             ("non-numeric", ~numeric))
+    return "; ".join(f"{int(m.sum())} {name} value(s), first at row {int(np.argmax(m))}"
+                     for name, m in kinds if np.any(m))
+
+
 def resolve(name_or_path: str) -> tuple[Path, Path | None]:
     """A file path, or a shipped record name (``emps``, ``ced-1``, ...) -> (fit record, test record)."""
     if name_or_path in SHIPPED:
@@ -158,6 +178,8 @@ def check_record(path: str | Path, table: pd.DataFrame | None = None,
     """
     problems: list[str] = []
     path = Path(path)
+    if table is None and not path.exists():
+        return [missing_file_message(path)]
     if meta is None:
         sc = sidecar_path(path)
         if not sc.exists():
@@ -167,8 +189,6 @@ def check_record(path: str | Path, table: pd.DataFrame | None = None,
         except json.JSONDecodeError as exc:
             return [f"sidecar {sc.name} is not valid JSON: {exc}"]
     if table is None:
-        if not path.exists():
-            return [f"data file {path} not found"]
         try:
             table = _read_table(path)
         except Exception as exc:  # noqa: BLE001 -- any parse failure is a problem to report
@@ -194,7 +214,7 @@ def check_record(path: str | Path, table: pd.DataFrame | None = None,
     else:
         t = pd.to_numeric(table[tcol], errors="coerce").to_numpy(dtype=np.float64)
         if np.any(~np.isfinite(t)):
-            problems.append(f"time column {tcol!r}: NaN or non-numeric at row {int(np.argmax(~np.isfinite(t)))}")
+            problems.append(f"time column {tcol!r}: {non_finite_summary(table[tcol], t)}")
         else:
             dtv = np.diff(t)
             if np.any(dtv <= 0):
@@ -235,10 +255,8 @@ def check_record(path: str | Path, table: pd.DataFrame | None = None,
                 problems.append(f"missing column {col!r} (declared in {role})")
                 continue
             v = pd.to_numeric(table[col], errors="coerce").to_numpy(dtype=np.float64)
-            bad = ~np.isfinite(v)
-            if np.any(bad):
-                problems.append(f"column {col!r}: {int(bad.sum())} NaN / non-numeric value(s), first at row "
-                                f"{int(np.argmax(bad))}")
+            if np.any(~np.isfinite(v)):
+                problems.append(f"column {col!r}: {non_finite_summary(table[col], v)}")
     ins = {s.get("quantity") for s in (meta.get("inputs") or {}).values() if isinstance(s, Mapping)}
     if device in DEVICES:
         problem = device_spec(device).record.input_problem({str(q) for q in ins})

@@ -206,16 +206,18 @@ class IdentificationResult:
         files = []
         fig, axes = plt.subplots(2 * len(names), 1, figsize=(9, 3.2 * 2 * len(names)), sharex=True, squeeze=False)
         for j, name in enumerate(names):
+            sig = self.record.outputs.get(name)
+            unit = f" [{sig.unit}]" if sig is not None and sig.unit else ""
             ax = axes[2 * j, 0]
             ax.plot(d["t"], d["measured"][:, j], "k", lw=1, label="measured")
             ax.plot(d["t"], d["nominal"][:, j], "C0", lw=1, label="nominal")
             ax.plot(d["t"], d["extended"][:, j], "C3--", lw=1, label="extended")
-            ax.set_ylabel(name)
+            ax.set_ylabel(f"{name}{unit}")
             ax.legend(loc="best", fontsize=8)
             ax = axes[2 * j + 1, 0]
             ax.plot(d["t"], d["nominal"][:, j] - d["measured"][:, j], "C0", lw=0.8, label="residual before")
             ax.plot(d["t"], d["extended"][:, j] - d["measured"][:, j], "C3", lw=0.8, label="residual after")
-            ax.set_ylabel(f"{name} residual")
+            ax.set_ylabel(f"{name} residual{unit}")
             ax.legend(loc="best", fontsize=8)
         axes[-1, 0].set_xlabel("t [s]")
         fig.suptitle(f"{self.record.experiment}: held-out {self.test_name}")
