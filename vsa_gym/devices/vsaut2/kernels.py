@@ -28,7 +28,7 @@ def _rhs_rows_py(x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any) 
     return dx, pw
 
 
-@register_jitable
+@register_jitable(inline="always")
 def point_rhs(ctx: tuple[Any, Any, float, float, float], y: np.ndarray, dy: np.ndarray, pw: np.ndarray) -> None:
     """The vsaUT-II's point right-hand side in the steppers' contract (:mod:`vsa_gym.physics.steppers`):
     ``ctx = (p, d, u_1, u_2, tau_ext)``, one row's parameters, derived constants and held inputs."""
