@@ -40,6 +40,7 @@ from vsa_gym.devices.vsaut2.belt import belt_stiffness_at_frame
 from vsa_gym.devices.vsaut2.lever import pivot_for_stiffness
 from vsa_gym.devices.vsaut2.params import VsaUT2Params
 from vsa_gym.devices.vsaut2.pivot import pivot_jacobian, sun_angle_for
+from vsa_gym.physics.dc_motor import current_limited_voltage, foldback_current
 
 VSAUT2_PS_OBS = ("q1_hat", "q2_hat", "r_hat", "w1_hat", "w2_hat", "r_dot_hat", "i1", "i2", "log_K_hat", "i2t_1",
                  "i2t_2", "r_ref", "log_K_ref", "r_err", "log_K_err")
@@ -130,11 +131,12 @@ class VsaUT2Decoupled:
         return self.n1 * sun_angle_for(self.p.pivot, q1)
 
     def foldback_current(self, i_max: float, utilisation: np.ndarray) -> np.ndarray:
-        """Current limit (A) at an I^2 t ``utilisation``: ``i_max`` up to ``i2t_foldback[0]``, ``i_foldback`` from
-        ``i2t_foldback[1]`` on, linear in between."""
+        """Current limit (A) at an I^2 t ``utilisation``: the amplifiers' foldback law
+        (:func:`vsa_gym.physics.dc_motor.foldback_current`, which the environments' drives apply too) with this
+        controller's ``i2t_foldback`` and ``i_foldback``."""
         lo, hi = self.config.i2t_foldback
-        f = np.clip((np.asarray(utilisation, dtype=np.float64) - lo) / (hi - lo), 0.0, 1.0)
-        return i_max - (i_max - min(self.config.i_foldback, i_max)) * f
+        u = np.atleast_1d(np.asarray(utilisation, dtype=np.float64))
+        return np.array([foldback_current(i_max, self.config.i_foldback, float(v), lo, hi) for v in u])
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         cfg, p = self.config, self.p
@@ -202,10 +204,8 @@ class VsaUT2Decoupled:
         lim1 = self.foldback_current(self.m1.I_max, o[:, g["i2t_1"]])
         lim2 = self.foldback_current(self.m2.I_max, o[:, g["i2t_2"]])
         # (only while folding back: at I_max the amplifier's own limit acts, on the true speed)
-        u1 = np.where(lim1 < self.m1.I_max, np.clip(u1, self.m1.k_e * w1 - self.m1.R * lim1,
-                                                    self.m1.k_e * w1 + self.m1.R * lim1), u1)
-        u2 = np.where(lim2 < self.m2.I_max, np.clip(u2, self.m2.k_e * w2 - self.m2.R * lim2,
-                                                    self.m2.k_e * w2 + self.m2.R * lim2), u2)
+        u1 = np.array([current_limited_voltage(self.m1, a, w, lim) for a, w, lim in np.broadcast(u1, w1, lim1)])
+        u2 = np.array([current_limited_voltage(self.m2, a, w, lim) for a, w, lim in np.broadcast(u2, w2, lim2)])
         u1, u2 = np.clip(u1, -self.u1_max, self.u1_max), np.clip(u2, -self.u2_max, self.u2_max)
         # conditional integration (anti-windup): freeze where a limit holds the voltage in the error's direction
         sat2 = (u2 != u2_free) & (np.sign(u2_free) == np.sign(e2))

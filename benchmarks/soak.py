@@ -140,7 +140,8 @@ def soak_one(env_id: str, mode: str, pattern: str, steps: int, rows: int, seed: 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=int, default=100_000, help="env-steps per task, shared by modes and patterns")
-    ap.add_argument("--rows", type=int, default=32, help="rows of the vector environment")
+    ap.add_argument("--rows", type=int, default=4,
+                    help="rows of the vector environment (few rows: long episodes, so time limits are reached)")
     ap.add_argument("--ids", nargs="*", default=list(ENV_IDS))
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", type=Path, default=None)

@@ -174,7 +174,7 @@ def test_vsaut2_i2t_foldback_limits_the_current_and_prevents_the_trip() -> None:
     chatter = {"kp_frame": 400.0, "kd_frame": 0.02, "output_damping": 0.5, "shaping_fraction": 0.5}
     ends = {}
     for name, fb in (("foldback", (0.5, 0.9)), ("none", (0.999, 1.0))):
-        env = gym.make_vec(PS, num_envs=4, i2t_trip_s=0.2)
+        env = gym.make_vec(PS, num_envs=4, i2t_trip_s=0.2, i2t_foldback=None)  # only the controller folds back
         pol = vsaut2_decoupled_factory(VsaUT2DecoupledConfig(i2t_foldback=fb, **chatter))(env)
         obs, _ = env.reset(seed=[0, 1, 2, 3])
         alive, trips = np.ones(4, dtype=bool), 0

@@ -302,7 +302,7 @@ def test_compiled_vsaut2_sensing_equals_the_sensor_models(randomized: bool) -> N
 def test_vsaut2_i2t_utilisation_is_observed_and_reaches_one_at_the_trip(env_id: str) -> None:
     """The observed I^2 t channels are the drives' heating states over the trip threshold: they grow under
     a held peak current, and the episode ends on the trip exactly when the frame drive's channel reaches 1."""
-    env = gym.make(env_id, control_mode="current", i2t_trip_s=0.05)
+    env = gym.make(env_id, control_mode="current", i2t_trip_s=0.05, i2t_foldback=None)  # the trip itself
     task = env.unwrapped.task
     names = [ch.name for ch in task.obs_channels]
     k1, k2 = names.index("i2t_1"), names.index("i2t_2")

@@ -98,3 +98,31 @@ def current_control_voltage(
     ``f_c = 1 kHz``).  The amplifier limits still apply through :func:`applied_voltage`.
     """
     return p.R * i_ref + p.k_e * omega + p.L * 2.0 * np.pi * bandwidth_hz * (i_ref - i)
+
+
+@register_jitable
+def foldback_current(i_max: float, i_fold: float, utilisation: float, start: float, end: float) -> float:
+    """The I^2 t foldback of a servo amplifier's current limit (A).
+
+    When the amplifier's I^2 t protection fills up it does not switch off: it folds its current limit back
+    towards the continuous current (maxon EPOS4 Firmware Specification, "I2t current limitation": the limit
+    drops to the continuous current when the thermal integral is used up).  The limit is ``i_max`` up to the
+    ``utilisation`` (heating state over trip threshold) ``start``, ``i_fold`` from ``end`` on, linear in between;
+    with ``i_fold`` below the nominal current the heating state drains at the folded limit, so the trip (
+    ``utilisation = 1``) is not reached by the drive's own current.  ``start >= end``: no foldback.
+    """
+    if end <= start:
+        return i_max
+    f = min(max((utilisation - start) / (end - start), 0.0), 1.0)
+    return i_max - (i_max - min(i_fold, i_max)) * f
+
+
+@register_jitable
+def current_limited_voltage(p: DCMotorParams, u: float, omega: float, i_lim: float) -> float:
+    """The voltage command clamped to a current limit ``i_lim`` below ``I_max``: ``k_e omega +- R i_lim`` (the
+    quasi-static current limit, as :func:`applied_voltage` does at ``I_max``; the current settles within
+    ``L/R``).  At ``i_lim >= I_max`` the command is returned unchanged (the amplifier's own limit acts)."""
+    if i_lim >= p.I_max:
+        return u
+    emf = p.k_e * omega
+    return min(max(u, emf - p.R * i_lim), emf + p.R * i_lim)

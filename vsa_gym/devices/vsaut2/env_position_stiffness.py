@@ -8,14 +8,13 @@ import numba
 import numpy as np
 
 from vsa_gym.devices.vsaut2.model import STATE
+from vsa_gym.devices.vsaut2.sensing_rows import K_FLOOR, N_COMMON_OBS, true_stiffness_row
 from vsa_gym.devices.vsaut2.task import (
     C_DT,
     ENERGY_INFO,
-    K_FLOOR,
     K_KB,
     K_RATE,
     MARGIN_INFO,
-    N_COMMON_OBS,
     OUT_NEW_SEGMENT,
     VsaUT2Task,
     common_obs_of,
@@ -23,7 +22,6 @@ from vsa_gym.devices.vsaut2.task import (
     energy_row,
     margins_into,
     threaded_variant,
-    true_stiffness_row,
 )
 from vsa_gym.envs.signals import SegmentReference, segment_value
 from vsa_gym.envs.task import (
@@ -315,8 +313,10 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
 
     ## Episode end
     ``terminated``: frame end stop contact ``|q2| >= q2_max``, deflection end stop contact
-    ``|phi| >= phi_max``, or an I^2 t trip (4 A nominal, 12 A for 2 s).  ``truncated``: the
-    registry's time limit (2500 steps = 5 s at the default ``control_dt``).
+    ``|phi| >= phi_max``, or an I^2 t trip (4 A nominal, 12 A for 2 s) -- which the drives' I^2 t foldback
+    (``i2t_foldback``, ``i_foldback``: the current limit folds back from 12 A towards 3 A as the utilisation goes
+    from 0.5 to 0.9, :mod:`vsa_gym.devices.vsaut2.task`) keeps from happening; ``i2t_foldback=None`` removes the
+    foldback.  ``truncated``: the registry's time limit (2500 steps = 5 s at the default ``control_dt``).
 
     ## Arguments
     ``gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", control_dt=2e-3, control_mode="voltage",
@@ -324,7 +324,8 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
     render_mode=None, w_position=1.0, w_stiffness=1.0, w_energy=1.0, position_scale=0.2,
     log_stiffness_scale=1.0, failure_penalty=100.0, failure_rate=None, episode_steps=None,
     position_range=0.4, stiffness_range=(2, 300), disturbance_max=0.5, current_bandwidth_hz=1000.0,
-    i_nominal=4.0, i2t_trip_s=2.0, velocity_cutoff_hz=50.0, integrator="rk4", parallel_rows=False)``.
+    i_nominal=4.0, i2t_trip_s=2.0, i2t_foldback=(0.5, 0.9), i_foldback=3.0, velocity_cutoff_hz=50.0,
+    integrator="rk4", parallel_rows=False)``.
     ``params`` is any (e.g. identified) :class:`VsaUT2Params`;
     ``domain_randomization`` maps dotted parameter paths to ``(low, high)`` ranges resampled on
     reset (:mod:`vsa_gym.envs.randomization`); ``sensor_noise``: ``False`` / ``True`` / scale /

@@ -8,13 +8,12 @@ import numba
 import numpy as np
 
 from vsa_gym.devices.vsaut2.model import STATE
+from vsa_gym.devices.vsaut2.sensing_rows import K_FLOOR, N_COMMON_OBS
 from vsa_gym.devices.vsaut2.task import (
     C_DT,
     D_E_CH,
     ENERGY_INFO,
-    K_FLOOR,
     MARGIN_INFO,
-    N_COMMON_OBS,
     VsaUT2Task,
     common_obs_of,
     drive_all,
@@ -200,7 +199,8 @@ class VsaUT2ThrowEnv(TaskEnv):
 
     ## Episode end
     ``terminated``: release (success), or a failure -- frame end stop contact, deflection end
-    stop contact, I^2 t trip.  ``truncated``: the time limit (no release within the window).
+    stop contact, I^2 t trip (kept away by the drives' I^2 t foldback, as in ``VsaUT2-PositionStiffness-v0``).
+    ``truncated``: the time limit (no release within the window).
 
     ## Arguments
     ``control_dt`` (2 ms), ``control_mode``, ``params``, ``domain_randomization``, ``sensor_noise``,

@@ -17,15 +17,25 @@ Sensors (:mod:`vsa_gym.physics.sensors`): incremental encoders (2000 pulses/rev,
 eq. 8) on both motor shafts, the AS5043 absolute encoder (10 bit, gain mismatch) on
 the output, the drives' current measurements (optional white noise).
 
-Failures (``terminated``): frame end stop contact ``|q2| >= q2_max``, deflection end
-stop contact ``|phi| >= phi_max``, and an I^2 t over-current trip of either drive
-(:mod:`vsa_gym.envs.sensing`; nominal current 4 A, Table IV, peak 12 A for ``i2t_trip_s``).
+I^2 t protection (both drives, both control modes): as a servo amplifier does (maxon EPOS4 firmware, "I2t
+current limitation"), the drive folds its current limit back when its I^2 t heating state fills up instead of
+stopping the motion (:func:`vsa_gym.physics.dc_motor.foldback_current`): ``I_max`` up to the utilisation
+``i2t_foldback[0]`` (default 0.5), ``i_foldback`` (default 3 A, below the nominal 4 A so the heating state drains)
+from ``i2t_foldback[1]`` (0.9) on, linear in between, from the utilisation at the start of each control step.
+Current mode clips the current reference to the folded limit; voltage mode clamps the voltage to ``k_e w +- R
+I_lim`` around the true back-EMF (:func:`~vsa_gym.physics.dc_motor.current_limited_voltage`, the amplifier law of
+the core at the folded limit, held over the step: a stall within a step can still draw up to ``I_max`` briefly,
+the mean square stays limited).  ``i2t_foldback=None`` switches it off (then the trip ends the episode).
+
+Failures (``terminated``): what would damage the actuator -- frame end stop contact ``|q2| >= q2_max``,
+deflection end stop contact ``|phi| >= phi_max`` -- and an I^2 t trip of either drive (:mod:`vsa_gym.envs.sensing`;
+nominal current 4 A, Table IV, peak 12 A for ``i2t_trip_s``), which the foldback keeps from happening.
 Each drive's I^2 t utilisation (heating state over its trip threshold, 1 = trip) is observed
-(``i2t_1``, ``i2t_2``), as servo drives report it (e.g. maxon EPOS): without it the trip is a
-hidden state that neither a controller nor an agent could anticipate.
+(``i2t_1``, ``i2t_2``), as servo drives report it (e.g. maxon EPOS): without it the foldback and the trip would
+be a hidden state that neither a controller nor an agent could anticipate.
 
 Step: one compiled call for all rows (the task's ``_*_rows``, built from :func:`drive_all` -- the core's
-own compiled RK4/ETD step, the amplifier law, the sensing of :func:`_sense_update` -- and the row
+own compiled RK4/ETD step, the amplifier law, the sensing of :func:`sense_update` -- and the row
 functions of the energy, margins and observation, which the reset-time methods call too); Python keeps the
 noise draws, the reference segment renewals and ``info``.  This is the only implementation of a task step
 (``NUMBA_DISABLE_JIT=1`` runs the same functions as plain Python for debugging); ``parallel_rows=True`` (64 rows
@@ -43,8 +53,8 @@ import numba
 import numpy as np
 from numba.extending import register_jitable
 
-from vsa_gym.devices.vsaut2.belt import belt_stiffness_at_frame, series_stiffness
-from vsa_gym.devices.vsaut2.lever import lever_ratio, spring_stiffness
+from vsa_gym.devices.vsaut2.belt import belt_stiffness_at_frame
+from vsa_gym.devices.vsaut2.lever import lever_ratio
 from vsa_gym.devices.vsaut2.model import (
     ETD_SUBSTEPS_PER_MS,
     INTEGRATORS,
@@ -63,8 +73,17 @@ from vsa_gym.devices.vsaut2.model import (
 )
 from vsa_gym.devices.vsaut2.params import AS5043Encoder, HEDL5540Encoder, VsaUT2Params
 from vsa_gym.devices.vsaut2.pivot import pivot_position
+from vsa_gym.devices.vsaut2.sensing_rows import (
+    K_FLOOR,
+    common_obs_row,
+    common_obs_rows,
+    margin_row,
+    margin_rows,
+    sense_update,
+    true_stiffness,
+)
 from vsa_gym.envs.randomization import DomainRandomization
-from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
+from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, lowpass_gain
 from vsa_gym.envs.task import (
     STATUS_BAD_STATE,
     CompiledStepTask,
@@ -72,19 +91,13 @@ from vsa_gym.envs.task import (
     ObsChannel,
     RegenPolicy,
 )
-from vsa_gym.physics.dc_motor import current_control_voltage
+from vsa_gym.physics.dc_motor import current_control_voltage, current_limited_voltage, foldback_current
 
 CURRENT_LOOP_DT = 1e-4  # s, 10 kHz current loop in current mode
-K_FLOOR = 0.1  # N m/rad, floor of the stiffness before taking its log (eq. 6 turns negative past 45 deg)
-N_COMMON_OBS = 11  # channels of VsaUT2Task._common_channels (the tasks append theirs after these)
 
-# eq. (6) of the lever, made callable from the compiled sensing below (the same functions, not a copy)
+# eq. (6) of the lever and the current-mode amplifier law, made callable from the compiled step (the same
+# functions, not a copy; the sensing's are registered in sensing_rows)
 register_jitable(lever_ratio)
-register_jitable(spring_stiffness)
-register_jitable(series_stiffness)
-# the sensing updates of sensing.py, compiled for _sense_update (the same functions, not a copy)
-register_jitable(update_velocity)
-register_jitable(i2t_update)
 register_jitable(current_control_voltage)
 # state columns (STATE) as constants the compiled sensing can fold
 _I1, _TH1, _I2, _TH2, _Q2, _R = STATE["i1"], STATE["th1"], STATE["i2"], STATE["th2"], STATE["q2"], STATE["r"]
@@ -93,8 +106,8 @@ _EL1, _EL2 = POWER["el_pivot"], POWER["el_frame"]
 
 # entries of the drive configuration array ``VsaUT2Task._cfg`` read by the compiled step
 (C_DT, C_H, C_N_INNER, C_N_SUB, C_CURRENT_MODE, C_ETD, C_BANDWIDTH, C_I_NOM, C_V_GAIN, C_ENC,
- C_REGEN_CLIP) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12)  # C_ENC: three entries (VsaUT2Task._enc)
-N_CFG = 13
+ C_REGEN_CLIP, C_FOLD_START, C_FOLD_END, C_I_FOLD) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 12, 13, 14, 15)  # C_ENC: 3 entries
+N_CFG = 16
 # columns of the per-row parameter matrix ``VsaUT2Task._row_cols()`` (from ``_cols`` and ``failure_rate``)
 (K_U1, K_U2, K_I1, K_I2, K_TH1_MAX, K_Q2_MAX, K_PHI_MAX, K_KB, K_RATIO, K_LIM1, K_LIM2, K_RATE) = range(12)
 N_K = 12
@@ -130,6 +143,8 @@ class VsaUT2Task(CompiledStepTask):
         current_bandwidth_hz: float = 1000.0,
         i_nominal: float = 4.0,
         i2t_trip_s: float = 2.0,
+        i2t_foldback: tuple[float, float] | None = (0.5, 0.9),
+        i_foldback: float = 3.0,
         velocity_cutoff_hz: float = 50.0,
         integrator: str = "rk4",
         parallel_rows: bool = False,
@@ -153,6 +168,13 @@ class VsaUT2Task(CompiledStepTask):
         self.current_bandwidth_hz = float(current_bandwidth_hz)
         self.i_nominal = float(i_nominal)
         self.i2t_trip_s = float(i2t_trip_s)
+        fold = (1.0, 1.0) if i2t_foldback is None else tuple(float(v) for v in i2t_foldback)
+        if len(fold) != 2 or not (0.0 <= fold[0] <= fold[1] <= 1.0):
+            raise ValueError(f"i2t_foldback must be (start, end) utilisations with 0 <= start <= end <= 1, or None "
+                             f"(no foldback), got {i2t_foldback}")
+        if not (np.isfinite(i_foldback) and i_foldback > 0.0):
+            raise ValueError(f"i_foldback must be a current > 0 A, got {i_foldback}")
+        self.i2t_foldback, self.i_foldback = fold, float(i_foldback)
         self.v_gain = lowpass_gain(velocity_cutoff_hz, self.control_dt)
         self.motor_encoder = HEDL5540Encoder()
         self.output_encoder = AS5043Encoder()
@@ -189,6 +211,7 @@ class VsaUT2Task(CompiledStepTask):
         cfg[C_BANDWIDTH], cfg[C_I_NOM], cfg[C_V_GAIN] = self.current_bandwidth_hz, self.i_nominal, self.v_gain
         cfg[C_ENC:C_ENC + 3] = self._enc
         cfg[C_REGEN_CLIP] = self.regen == "clip"
+        cfg[C_FOLD_START], cfg[C_FOLD_END], cfg[C_I_FOLD] = self.i2t_foldback[0], self.i2t_foldback[1], self.i_foldback
         #: drive configuration of the compiled step (``C_*`` entries)
         self._cfg = cfg
         #: any sensor noise? (then the compiled step's noise-free observation is recomputed after the draws)
@@ -290,17 +313,17 @@ class VsaUT2Task(CompiledStepTask):
     def _common_obs(self, rows: np.ndarray) -> np.ndarray:
         """The ``N_COMMON_OBS`` common channels of ``rows`` (compiled: eq. 5 and eq. 6 on the quantised angles)."""
         c = self._cols()
-        return _common_obs_rows(self.s["meas"], self.s["vel"], self.s["cur"], self.s["i2t"], c["i2t_lim"],
+        return common_obs_rows(self.s["meas"], self.s["vel"], self.s["cur"], self.s["i2t"], c["i2t_lim"],
                                 self.model.p_rows, c["K_b"], c["ratio"], np.asarray(rows, dtype=np.intp))
 
     def _stiffness(self) -> np.ndarray:
         """True output stiffness of every row, ``VsaUT2Model.stiffness`` (eq. 6 in series with the belt), compiled."""
-        return _true_stiffness(self.s["x"], self.model.p_rows, self._cols()["K_b"])
+        return true_stiffness(self.s["x"], self.model.p_rows, self._cols()["K_b"])
 
     # ------------------------------------------------------------------ failures and margins
     def _margins(self, rows: np.ndarray) -> dict[str, np.ndarray]:
         c = self._cols()
-        mg = _margin_rows(self.s["x"], self.s["i2t"], c["th1_max"], c["q2_max"], c["phi_max"], c["i2t_lim"],
+        mg = margin_rows(self.s["x"], self.s["i2t"], c["th1_max"], c["q2_max"], c["phi_max"], c["i2t_lim"],
                           np.asarray(rows, dtype=np.intp))
         return {"margin_frame_stop": mg[:, 0], "margin_deflection_stop": mg[:, 1], "margin_i2t": mg[:, 2],
                 "margin_pivot_stroke": mg[:, 3]}
@@ -392,98 +415,10 @@ def _circle(xy: tuple[float, float], radius: float, color: str) -> Any:
     return Circle(xy, radius, color=color)
 
 
-# ---------------------------------------------------------------------------- compiled per-step sensing
-# Element by element, with the operations of the numpy expressions they replace (sensors.IncrementalEncoder /
-# AbsoluteEncoder.measure, sensing.update_velocity and i2t_update, eqs. 5 and 6): the values are unchanged
-# (tests/envs checks them against the sensor objects); one call replaces about 40 small numpy calls per step.
-
-
-@numba.njit(cache=True)
-def _sense_update(x: np.ndarray, meas: np.ndarray, vel: np.ndarray, i2t: np.ndarray, enc: np.ndarray, dt: float,
-                  gain: float, i_nom: float) -> None:
-    """In place, every row: I^2 t states ``(n, 2)``, quantised angles ``meas`` and speed estimates ``vel`` ``(n, 3)``.
-
-    ``enc = [motor encoder step, output encoder step, output gain mismatch]`` (step 0: exact angle).
-    """
-    for i in range(x.shape[0]):
-        for j, col in ((0, _I1), (1, _I2)):
-            i2t[i, j] = i2t_update(i2t[i, j], x[i, col] ** 2, i_nom, dt)
-        m = np.empty(3)
-        for j, col in ((0, _TH1), (1, _TH2)):
-            m[j] = x[i, col] if enc[0] == 0.0 else np.floor(x[i, col] / enc[0]) * enc[0]
-        r = x[i, _R]
-        m[2] = r if enc[1] == 0.0 else np.round((r + enc[2] * np.sin(2.0 * r)) / enc[1]) * enc[1]
-        for j in range(3):
-            vel[i, j] = update_velocity(meas[i, j], m[j], vel[i, j], dt, gain)
-            meas[i, j] = m[j]
-
-
-@numba.njit(cache=True)
-def _common_obs_rows(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, i2t: np.ndarray, i2t_lim: np.ndarray,
-                     P: np.ndarray, K_b: np.ndarray, ratio: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """The common observation channels of ``rows``, ``(len(rows), N_COMMON_OBS)`` (see ``_common_channels``)."""
-    out = np.empty((rows.shape[0], N_COMMON_OBS))
-    for j in range(rows.shape[0]):
-        _common_obs_row(meas, vel, cur, i2t, i2t_lim, P, K_b, ratio, rows[j], out[j])
-    return out
-
-
-@register_jitable
-def _common_obs_row(meas: np.ndarray, vel: np.ndarray, cur: np.ndarray, i2t: np.ndarray, i2t_lim: np.ndarray,
-                    P: np.ndarray, K_b: np.ndarray, ratio: np.ndarray, i: int, o: np.ndarray) -> None:
-    """Row ``i`` of :func:`_common_obs_rows` into ``o[:N_COMMON_OBS]``."""
-    p = P_ROW(P, i)
-    q1 = pivot_position(p.pivot, meas[i, 0] / p.pivot_gearbox.n)
-    q2 = meas[i, 1] / ratio[i]
-    K_s = spring_stiffness(p.lever, q1, meas[i, 2] - q2)
-    K = max(series_stiffness(K_s, K_b[i]), K_FLOOR) if K_s > 0 else K_FLOOR
-    o[0], o[1], o[2] = q1, q2, meas[i, 2]
-    o[3], o[4], o[5] = vel[i, 0], vel[i, 1], vel[i, 2]
-    o[6], o[7], o[8] = cur[i, 0], cur[i, 1], np.log(K)
-    o[9] = min(i2t[i, 0] / i2t_lim[i, 0], 1.0)
-    o[10] = min(i2t[i, 1] / i2t_lim[i, 1], 1.0)
-
-
-@numba.njit(cache=True)
-def _true_stiffness(x: np.ndarray, P: np.ndarray, K_b: np.ndarray) -> np.ndarray:
-    """``VsaUT2Model.stiffness(x)``: eq. (6) at the true pivot and deflection in series with the belt, ``(n,)``."""
-    out = np.empty(x.shape[0])
-    for i in range(x.shape[0]):
-        out[i] = true_stiffness_row(x, P, K_b, i)
-    return out
-
-
-@register_jitable
-def true_stiffness_row(x: np.ndarray, P: np.ndarray, K_b: np.ndarray, i: int) -> float:
-    """Row ``i`` of :func:`_true_stiffness`."""
-    p = P_ROW(P, i)
-    K_s = spring_stiffness(p.lever, pivot_position(p.pivot, x[i, _TH1] / p.pivot_gearbox.n), x[i, _R] - x[i, _Q2])
-    return series_stiffness(K_s, K_b[i])
-
-
-@numba.njit(cache=True)
-def _margin_rows(x: np.ndarray, i2t: np.ndarray, th1_max: np.ndarray, q2_max: np.ndarray, phi_max: np.ndarray,
-                 lim: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """Constraint margins of ``rows``, ``(len(rows), 4)``: frame stop, deflection stop, I^2 t, pivot stroke."""
-    out = np.empty((rows.shape[0], 4))
-    for j in range(rows.shape[0]):
-        out[j, 0], out[j, 1], out[j, 2], out[j, 3] = _margin_row(x, i2t, th1_max, q2_max, phi_max, lim, rows[j])
-    return out
-
-
-@register_jitable
-def _margin_row(x: np.ndarray, i2t: np.ndarray, th1_max: np.ndarray, q2_max: np.ndarray, phi_max: np.ndarray,
-                lim: np.ndarray, i: int) -> tuple[float, float, float, float]:
-    """Row ``i`` of :func:`_margin_rows`."""
-    q2, th1 = x[i, _Q2], x[i, _TH1]
-    return (q2_max[i] - abs(q2), phi_max[i] - abs(x[i, _R] - q2),
-            min(1.0 - i2t[i, 0] / lim[i, 0], 1.0 - i2t[i, 1] / lim[i, 1]), min(th1, th1_max[i] - th1) / th1_max[i])
-
-
 # ---------------------------------------------------------------------------- compiled task step parts
 # The drive (without the noise draws), energy and margins of a step, element by element: the core's own compiled
 # step (VsaUT2Model._step_valid's kernels, called here on all rows at once), the current-mode amplifier law of
-# physics.dc_motor, the sensing of _sense_update; the tasks' compiled steps (vsaut2_position_stiffness,
+# physics.dc_motor, the sensing of sense_update; the tasks' compiled steps (vsaut2_position_stiffness,
 # vsaut2_throw) add references and rewards.
 
 
@@ -510,16 +445,28 @@ def drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarray
     xc = x.copy()
     u = np.empty((n, 2))
     e_sum = np.zeros((n, N_POWER))
+    # the amplifiers' I^2 t foldback: each drive's current limit from its utilisation at the start of the step
+    lim = np.empty((n, 2))
+    for i in range(n):
+        for k in range(2):
+            lim[i, k] = foldback_current(C[i, K_I1 + k], cfg[C_I_FOLD], drv[i, D_I2T + k] / C[i, K_LIM1 + k],
+                                         cfg[C_FOLD_START], cfg[C_FOLD_END])
     for _ in range(int(cfg[C_N_INNER])):
         for i in range(n):
             if not enabled[i]:
                 u[i, 0], u[i, 1] = 0.0, 0.0
-            elif current:
+            elif current:  # the current reference, within the folded limit
                 p = P_ROW(P, i)
-                u[i, 0] = current_control_voltage(p.pivot_motor, cmd[i, 0] * C[i, K_I1], xc[i, _I1], xc[i, _W1], bw)
-                u[i, 1] = current_control_voltage(p.frame_motor, cmd[i, 1] * C[i, K_I2], xc[i, _I2], xc[i, _W2], bw)
+                i1 = min(max(cmd[i, 0] * C[i, K_I1], -lim[i, 0]), lim[i, 0])
+                i2 = min(max(cmd[i, 1] * C[i, K_I2], -lim[i, 1]), lim[i, 1])
+                u[i, 0] = current_control_voltage(p.pivot_motor, i1, xc[i, _I1], xc[i, _W1], bw)
+                u[i, 1] = current_control_voltage(p.frame_motor, i2, xc[i, _I2], xc[i, _W2], bw)
             else:
                 u[i, 0], u[i, 1] = cmd[i, 0] * C[i, K_U1], cmd[i, 1] * C[i, K_U2]
+                if lim[i, 0] < C[i, K_I1] or lim[i, 1] < C[i, K_I2]:  # folding back: the voltage clamped to it
+                    p = P_ROW(P, i)
+                    u[i, 0] = current_limited_voltage(p.pivot_motor, u[i, 0], xc[i, _W1], lim[i, 0])
+                    u[i, 1] = current_limited_voltage(p.frame_motor, u[i, 1], xc[i, _W2], lim[i, 1])
         # the core's serial kernels: a cached function calling the parallel ones crashes when loaded from the
         # cache; threaded_variant builds an uncached copy of the step that calls the parallel ones
         if etd:
@@ -535,7 +482,7 @@ def drive_all(a: np.ndarray, x: np.ndarray, tau: np.ndarray, enabled: np.ndarray
     x[:] = xc
     for i in range(n):
         e_m[i, 0], e_m[i, 1] = e_sum[i, _EL1], e_sum[i, _EL2]
-    _sense_update(x, drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_I2T:D_I2T + 2],
+    sense_update(x, drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_I2T:D_I2T + 2],
                   cfg[C_ENC:C_ENC + 3], cfg[C_DT], cfg[C_V_GAIN], cfg[C_I_NOM])
     for i in range(n):
         drv[i, D_CUR], drv[i, D_CUR + 1] = x[i, _I1], x[i, _I2]  # the readings without noise
@@ -560,7 +507,7 @@ def energy_row(i: int, e_m: np.ndarray, drv: np.ndarray, cfg: np.ndarray, out: n
 def margins_into(x: np.ndarray, drv: np.ndarray, C: np.ndarray, i: int, out: np.ndarray, k: int) -> bool:
     """Row ``i``'s margins (``MARGIN_INFO``) into ``out[k:k + 4, i]``; returns the failure flag (frame or deflection
     end stop, I^2 t trip)."""
-    mg = _margin_row(x, drv[:, D_I2T:D_I2T + 2], C[:, K_TH1_MAX], C[:, K_Q2_MAX], C[:, K_PHI_MAX],
+    mg = margin_row(x, drv[:, D_I2T:D_I2T + 2], C[:, K_TH1_MAX], C[:, K_Q2_MAX], C[:, K_PHI_MAX],
                      C[:, K_LIM1:K_LIM2 + 1], i)
     out[k, i], out[k + 1, i], out[k + 2, i], out[k + 3, i] = mg
     return mg[0] <= 0 or mg[1] <= 0 or mg[2] <= 0
@@ -569,7 +516,7 @@ def margins_into(x: np.ndarray, drv: np.ndarray, C: np.ndarray, i: int, out: np.
 @register_jitable
 def common_obs_of(x: np.ndarray, P: np.ndarray, C: np.ndarray, drv: np.ndarray, i: int, o: np.ndarray) -> None:
     """Row ``i``'s common observation channels (:meth:`VsaUT2Task._common_obs`) into ``o``."""
-    _common_obs_row(drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_CUR:D_CUR + 2],
+    common_obs_row(drv[:, D_MEAS:D_MEAS + 3], drv[:, D_VEL:D_VEL + 3], drv[:, D_CUR:D_CUR + 2],
                     drv[:, D_I2T:D_I2T + 2], C[:, K_LIM1:K_LIM2 + 1], P, C[:, K_KB], C[:, K_RATIO], i, o)
 
 
