@@ -6,7 +6,7 @@
         --env vsa_gym/ELPAS-ForceTracking-v0 --episodes 10 --json metrics.json   # -> next to the model
 
 The model's algorithm is read from the .zip (``--algo`` overrides) and its VecNormalize statistics
-are found by the run layout (:func:`agents.common.vecnormalize_for`; ``--vecnormalize`` overrides).
+are found by the run layout (:func:`run_vecnormalize`; ``--vecnormalize`` overrides).
 The policy is deterministic.  Episodes use the seeds ``--seed-base + k`` (default
 ``METRIC_SEED_BASE``, never used in training) and the environment arguments the agent was trained
 with (its ``config.yml``, replaced by the ``env_kwargs`` of ``args.yml`` where rl-zoo3's ``--env-kwargs`` put
@@ -42,6 +42,7 @@ from agents.common import (
     METRIC_SEED_BASE,
     algo_class,
     algo_of_model,
+    eval_zoo_expr,
     run_config,
     run_env_kwargs,
     run_params_dir,
@@ -156,6 +157,27 @@ def training_vec_env_wrapper(model_path: str | os.PathLike[str], env_id: str) ->
     return run_config(params_dir).get("vec_env_wrapper") if params_dir is not None else None
 
 
+def run_vecnormalize(model_path: str | os.PathLike[str], env_id: str) -> Path | None:
+    """The VecNormalize statistics of a model: its own (:func:`agents.common.vecnormalize_for`), else the run's
+    ``ENV_NAME/vecnormalize.pkl``, which is what rl-zoo3 uses with every model of a run (its checkpoints and
+    ``best_model.zip`` have no statistics of their own).  ``ValueError`` when the run normalised its observations
+    and neither exists: the policy would see unnormalised ones."""
+    own = vecnormalize_for(model_path)
+    if own is not None:
+        return own
+    params_dir = run_params_dir(model_path, env_id)
+    if params_dir is None:
+        return None
+    if (params_dir / "vecnormalize.pkl").exists():
+        return params_dir / "vecnormalize.pkl"
+    norm = run_config(params_dir).get("normalize")
+    norm = eval_zoo_expr(norm) if isinstance(norm, str) else norm
+    if norm is True or (isinstance(norm, Mapping) and norm.get("norm_obs", True)):
+        raise ValueError(f"{model_path}: the run was trained with normalize but {params_dir}/vecnormalize.pkl "
+                         "does not exist; pass the statistics with --vecnormalize")
+    return None
+
+
 def json_path(model_path: str | os.PathLike[str], path: str | os.PathLike[str]) -> Path:
     """Where ``--json path`` goes: ``path`` if absolute, else relative to the model's folder (the run directory)."""
     p = Path(path).expanduser()
@@ -193,7 +215,8 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     """
     from baselines.metrics import evaluate_policy
 
-    policy = load_agent(model_path, algo, vecnormalize)
+    vn_path = Path(vecnormalize) if vecnormalize is not None else run_vecnormalize(model_path, env_id)
+    policy = load_agent(model_path, algo, vn_path)
     kw, dropped = scoring_env_kwargs(env_id, training_env_kwargs(model_path, env_id), reward, env_kwargs)
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
     seeds = [seed_base + k for k in range(int(episodes))]
@@ -203,7 +226,7 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     result = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
     result = dict(result)
     result["agent"] = {"model": str(model_path), "algo": algo or algo_of_model(model_path),
-                       "vecnormalize": str(vecnormalize or vecnormalize_for(model_path)), "seeds": seeds,
+                       "vecnormalize": str(vn_path), "seeds": seeds,
                        "env_kwargs": kw, "residual": residual, "features": feature_config(wrappers),
                        "reward": reward,
                        "training_reward_kwargs": dropped}

@@ -65,8 +65,9 @@ def zoo_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     conf = root / "ppo.yml"
     conf.write_text(yaml.safe_dump({FORCE: {**entry, **TINY}}))
     argv = ["train", "--algo", "ppo", "--env", FORCE, "--gym-packages", "vsa_gym", "-n", "256", "-f", str(root),
-            "-conf", str(conf), "--eval-freq", "-1", "--seed", "0", "--num-threads", "1", "--device", "cpu",
-            "--verbose", "0", "--env-kwargs", "control_mode:'current'", f"max_episode_steps:{EPISODE}"]
+            "-conf", str(conf), "--eval-freq", "-1", "--save-freq", "128", "--seed", "0", "--num-threads", "1",
+            "--device", "cpu", "--verbose", "0",
+            "--env-kwargs", "control_mode:'current'", f"max_episode_steps:{EPISODE}"]
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(sys, "argv", argv)
         zoo_train()
@@ -248,6 +249,16 @@ def test_agents_evaluate_loads_an_rl_zoo3_run(zoo_run: Path, tmp_path: Path, mon
     assert agent["algo"] == "ppo" and agent["vecnormalize"] == str(params / "vecnormalize.pkl")
     assert res["steps"] == 40 and all(np.isfinite(res[k]) for k in ("return", "metric_value", "energy_J"))
     assert load_agent(model).vecnormalize.obs_rms.count > 256
+    # rl-zoo3's checkpoints have no statistics of their own: the run's, as rl_zoo3.enjoy uses them
+    ckpt = zoo_run / "rl_model_128_steps.zip"
+    assert not (zoo_run / "rl_model_vecnormalize_128_steps.pkl").exists()
+    res_ckpt = evaluate_agent(ckpt, FORCE, episodes=1, episode_steps=20)
+    assert res_ckpt["agent"]["vecnormalize"] == str(params / "vecnormalize.pkl")
+    bare = tmp_path / "bare"
+    shutil.copytree(zoo_run, bare)
+    (bare / NAME / "vecnormalize.pkl").unlink()
+    with pytest.raises(ValueError, match="vecnormalize"):  # never silently unnormalised
+        evaluate_agent(bare / "rl_model_128_steps.zip", FORCE, episodes=1, episode_steps=20)
 
     cwd = tmp_path / "cwd"
     cwd.mkdir()
