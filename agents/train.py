@@ -12,6 +12,11 @@ Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (rl-zoo3 format, key
 Environments are the native batched vector envs (:func:`vsa_gym.envs.sb3.make_sb3_vec_env`)
 under ``VecMonitor`` and ``VecNormalize``.
 
+Runs are rl-zoo3's (``config.yml`` and ``args.yml`` in its format, :mod:`agents.zoo`): ``python -m rl_zoo3.enjoy
+--algo ALGO --env ENV -f LOG --exp-id N --gym-packages vsa_gym`` loads them (the command is printed at the end).
+Residual agents go to ``LOG/residual`` (:func:`agents.common.run_log_folder`), so their run ids never collide
+with those of pure runs; rl-zoo3 reads them with ``-f LOG/residual``.
+
 Checkpoints (``rl_model_N_steps.*``) hold the model with its step count, the VecNormalize
 statistics and, for off-policy algorithms, the replay buffer.  They are written at the first
 loop boundary (start of a rollout collection) after every ``--save-freq`` timesteps, at the end,
