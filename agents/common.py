@@ -4,8 +4,8 @@ Run layout (rl-zoo3's, so that ``rl_zoo3.enjoy`` and our tools read each other's
 
     LOG_FOLDER/ALGO/ENV_NAME_RUNID/              "save path"; ENV_NAME is the id with "/" -> "-"
         ENV_NAME.zip                             final model
-        ENV_NAME/vecnormalize.pkl                final VecNormalize statistics
-        ENV_NAME/config.yml, args.yml, command.txt
+        ENV_NAME/vecnormalize.pkl                VecNormalize statistics of the newest checkpoint (final at the end)
+        ENV_NAME/config.yml, args.yml, command.txt   rl-zoo3's files (:mod:`agents.zoo`), plain YAML
         rl_model_N_steps.zip                     checkpoints (N = timesteps), with
         rl_model_vecnormalize_N_steps.pkl        their VecNormalize statistics and
         rl_model_replay_buffer_N_steps.pkl       replay buffer (off-policy algorithms)
@@ -13,6 +13,11 @@ Run layout (rl-zoo3's, so that ``rl_zoo3.enjoy`` and our tools read each other's
         0.monitor.csv                            training episodes
         tb/                                      TensorBoard logs
         train_info.json                          timesteps, CPU and wall seconds per segment (ours)
+
+Residual runs (a ``vec_env_wrapper`` of :mod:`agents.residual`) go to ``LOG_FOLDER/residual/ALGO/...``
+(:func:`run_log_folder`), so they never share run ids with the pure runs of the same (algo, env); rl-zoo3 reads
+them with ``-f LOG_FOLDER/residual``.  rl-zoo3's own ``config.yml`` and ``args.yml`` are ``OrderedDict`` dumps:
+:func:`read_yaml` (:class:`ZooLoader`) reads them without unsafe loading.
 
 Seeds: a run with ``--seed S`` seeds the model and the training rows with ``S, S+1, ...``;
 periodic evaluation uses the held-out seeds ``EVAL_SEED_BASE + k`` (the same at every
@@ -38,6 +43,47 @@ HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 EVAL_SEED_BASE = 1_000_000
 METRIC_SEED_BASE = 2_000_000
 _CHECKPOINT_RE = re.compile(r"^rl_model_(\d+)_steps\.zip$")
+RESIDUAL_FOLDER = "residual"
+ORDERED_DICT_TAG = "tag:yaml.org,2002:python/object/apply:collections.OrderedDict"
+
+
+# ---------------------------------------------------------------------------------------------- YAML
+class ZooLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that also reads rl-zoo3's ``config.yml`` / ``args.yml``.
+
+    rl-zoo3 dumps them as ``collections.OrderedDict`` (``!!python/object/apply:collections.OrderedDict``, a list
+    of ``[key, value]`` pairs), which ``yaml.safe_load`` refuses.  This loader accepts exactly that tag, in exactly
+    that form, and builds a plain ``dict``; every other Python tag is refused as by ``SafeLoader``.
+    """
+
+
+def _construct_ordered_dict(loader: yaml.SafeLoader, node: yaml.Node) -> dict[Any, Any]:
+    pairs_node = node.value[0] if isinstance(node, yaml.SequenceNode) and len(node.value) == 1 else None
+    if not isinstance(pairs_node, yaml.SequenceNode):
+        raise yaml.constructor.ConstructorError(None, None, "expected an OrderedDict as rl-zoo3 dumps it "
+                                                "(one list of [key, value] pairs)", node.start_mark)
+    out: dict[Any, Any] = {}
+    for pair in pairs_node.value:
+        if not (isinstance(pair, yaml.SequenceNode) and len(pair.value) == 2):
+            raise yaml.constructor.ConstructorError(None, None, "an OrderedDict item must be a [key, value] pair",
+                                                    pair.start_mark)
+        key = loader.construct_object(pair.value[0], deep=True)
+        value = loader.construct_object(pair.value[1], deep=True)
+        try:
+            out[key] = value
+        except TypeError as exc:
+            raise yaml.constructor.ConstructorError(None, None, f"unhashable OrderedDict key {key!r}",
+                                                    pair.start_mark) from exc
+    return out
+
+
+ZooLoader.add_constructor(ORDERED_DICT_TAG, _construct_ordered_dict)
+
+
+def read_yaml(path: str | os.PathLike[str]) -> Any:
+    """A YAML file of ours or rl-zoo3's (hyperparameters, ``config.yml``, ``args.yml``), read by :class:`ZooLoader`."""
+    with open(path) as fh:
+        return yaml.load(fh, Loader=ZooLoader)  # a SafeLoader subclass: no arbitrary objects
 
 
 def algo_class(algo: str) -> Any:
@@ -95,8 +141,7 @@ def read_hyperparams(algo: str, env_id: str, path: str | os.PathLike[str] | None
     Like rl-zoo3, the key is the full id; a ``default`` entry is used when the id is absent.
     """
     f = hyperparams_file(algo, path)
-    with open(f) as fh:
-        table = yaml.safe_load(fh)
+    table = read_yaml(f)
     if not isinstance(table, dict):
         raise ValueError(f"{f}: expected a mapping from env ids to hyperparameters")
     if env_id in table:
@@ -227,6 +272,60 @@ def make_train_env(env_id: str, n_envs: int, seed: int, env_kwargs: Mapping[str,
 
 
 # ---------------------------------------------------------------------------------------------- run layout
+def is_residual(vec_env_wrapper: Any) -> bool:
+    """Whether a ``vec_env_wrapper`` hyperparameter makes a residual agent (a wrapper of :mod:`agents.residual`)."""
+    from agents.residual import residual_config
+
+    return vec_env_wrapper is not None and residual_config(vec_env_wrapper) is not None
+
+
+def run_log_folder(log_folder: str | os.PathLike[str], vec_env_wrapper: Any = None, new_run: bool = False) -> Path:
+    """The log folder of a run: ``LOG/residual`` for a residual agent (``LOG`` itself when it is already named
+    ``residual``), ``LOG`` for a pure one.
+
+    rl-zoo3 finds a run as ``FOLDER/ALGO/ENV_NAME_ID`` (``ALGO`` one of its algorithm names), so the log
+    folder is the only part of the path that can tell residual from pure runs; ``rl_zoo3.enjoy -f LOG/residual``
+    reads the residual ones.  ``new_run``: refuse to put a pure run into a folder named ``residual``.
+    """
+    log = Path(log_folder)
+    if is_residual(vec_env_wrapper):
+        return log if log.name == RESIDUAL_FOLDER else log / RESIDUAL_FOLDER
+    if new_run and log.name == RESIDUAL_FOLDER:
+        raise ValueError(f"{log}: a folder named {RESIDUAL_FOLDER!r} holds residual runs only; give its parent "
+                         "as the log folder of a pure run")
+    return log
+
+
+def run_params_dir(model_path: str | os.PathLike[str], env_id: str) -> Path | None:
+    """``SAVE_PATH/ENV_NAME`` (with ``config.yml``) of a model file of the layout; ``None`` outside a run."""
+    p = Path(model_path)
+    for cand in (p.parent / env_name(env_id), p.parent / p.stem):
+        if (cand / "config.yml").exists():
+            return cand
+    return None
+
+
+def run_config(params_dir: str | os.PathLike[str]) -> dict[str, Any]:
+    """The hyperparameters of a run (``config.yml``, ours or rl-zoo3's)."""
+    return dict(read_yaml(Path(params_dir) / "config.yml") or {})
+
+
+def run_args(params_dir: str | os.PathLike[str]) -> dict[str, Any]:
+    """The arguments of a run (``args.yml``, ours or rl-zoo3's; empty when absent)."""
+    f = Path(params_dir) / "args.yml"
+    return dict(read_yaml(f) or {}) if f.exists() else {}
+
+
+def run_env_kwargs(params_dir: str | os.PathLike[str]) -> dict[str, Any]:
+    """The environment arguments a run was trained with, resolved as ``rl_zoo3.enjoy`` does: ``env_kwargs`` of
+    ``config.yml``, replaced by ``env_kwargs`` of ``args.yml`` (rl-zoo3's ``--env-kwargs``) when that is not null."""
+    kw = run_config(params_dir).get("env_kwargs") or {}
+    override = run_args(params_dir).get("env_kwargs")
+    if override is not None:
+        kw = override
+    return dict(eval_zoo_expr(kw) if isinstance(kw, str) else kw)
+
+
 def run_dirs(log_folder: str | os.PathLike[str], algo: str, env_id: str) -> list[Path]:
     """Existing run directories ``LOG/ALGO/ENV_NAME_<id>`` sorted by run id."""
     base = Path(log_folder) / algo

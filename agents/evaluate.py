@@ -3,14 +3,18 @@
 ::
 
     python -m agents.evaluate logs/ppo/vsa_gym-ELPAS-ForceTracking-v0_1/vsa_gym-ELPAS-ForceTracking-v0.zip \\
-        --env vsa_gym/ELPAS-ForceTracking-v0 --episodes 10 --json out/ppo_force.json
+        --env vsa_gym/ELPAS-ForceTracking-v0 --episodes 10 --json metrics.json   # -> next to the model
 
 The model's algorithm is read from the .zip (``--algo`` overrides) and its VecNormalize statistics
-are found by the run layout (:func:`agents.common.vecnormalize_for`; ``--vecnormalize`` overrides).
+are found by the run layout (:func:`run_vecnormalize`; ``--vecnormalize`` overrides).
 The policy is deterministic.  Episodes use the seeds ``--seed-base + k`` (default
 ``METRIC_SEED_BASE``, never used in training) and the environment arguments the agent was trained
-with (its ``config.yml``), so a learned policy and a baseline are measured by the same rules on the
-same episodes.  The JSON holds the metrics dict of ``evaluate_policy`` plus a ``"agent"`` entry.
+with (its ``config.yml``, replaced by the ``env_kwargs`` of ``args.yml`` where rl-zoo3's ``--env-kwargs`` put
+them, as ``rl_zoo3.enjoy`` reads them), so a learned policy and a baseline are measured by the same rules on the
+same episodes.  Runs of ``python -m rl_zoo3.train`` load like ours (same layout; their ``OrderedDict`` YAML is read
+by :func:`agents.common.read_yaml`).  ``--json FILE`` writes the metrics dict of ``evaluate_policy`` plus a
+``"agent"`` entry; a relative ``FILE`` is taken relative to the model's folder (the run directory), never the
+current directory.
 
 **Reward.**  The physical metrics (tracking RMS, comfort, energy, violations) do not depend on the
 reward, but the ``return`` does.  An agent may be trained with other reward weights (e.g.
@@ -34,7 +38,17 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents.common import METRIC_SEED_BASE, algo_class, algo_of_model, env_name, vecnormalize_for, write_json
+from agents.common import (
+    METRIC_SEED_BASE,
+    algo_class,
+    algo_of_model,
+    eval_zoo_expr,
+    run_config,
+    run_env_kwargs,
+    run_params_dir,
+    vecnormalize_for,
+    write_json,
+)
 from agents.features import FEATURE_CLASS, feature_config, feature_policy
 from agents.residual import RESIDUAL_CLASS, SETPOINT_CLASS, residual_config, residual_policy
 
@@ -132,24 +146,42 @@ def load_agent(model_path: str | os.PathLike[str], algo: str | None = None,
 
 
 def training_env_kwargs(model_path: str | os.PathLike[str], env_id: str) -> dict[str, Any]:
-    """``env_kwargs`` of the run's ``config.yml`` (empty when the model is not in a run directory)."""
-    from agents.common import eval_zoo_expr
-
-    p = Path(model_path)
-    for cand in (p.parent / env_name(env_id) / "config.yml", p.parent / p.stem / "config.yml"):
-        if cand.exists():
-            kw = (yaml.safe_load(cand.read_text()) or {}).get("env_kwargs") or {}
-            return dict(eval_zoo_expr(kw) if isinstance(kw, str) else kw)
-    return {}
+    """The run's environment arguments (:func:`agents.common.run_env_kwargs`; empty outside a run directory)."""
+    params_dir = run_params_dir(model_path, env_id)
+    return run_env_kwargs(params_dir) if params_dir is not None else {}
 
 
 def training_vec_env_wrapper(model_path: str | os.PathLike[str], env_id: str) -> Any:
     """``vec_env_wrapper`` of the run's ``config.yml`` (``None`` when absent or outside a run directory)."""
-    p = Path(model_path)
-    for cand in (p.parent / env_name(env_id) / "config.yml", p.parent / p.stem / "config.yml"):
-        if cand.exists():
-            return (yaml.safe_load(cand.read_text()) or {}).get("vec_env_wrapper")
+    params_dir = run_params_dir(model_path, env_id)
+    return run_config(params_dir).get("vec_env_wrapper") if params_dir is not None else None
+
+
+def run_vecnormalize(model_path: str | os.PathLike[str], env_id: str) -> Path | None:
+    """The VecNormalize statistics of a model: its own (:func:`agents.common.vecnormalize_for`), else the run's
+    ``ENV_NAME/vecnormalize.pkl``, which is what rl-zoo3 uses with every model of a run (its checkpoints and
+    ``best_model.zip`` have no statistics of their own).  ``ValueError`` when the run normalised its observations
+    and neither exists: the policy would see unnormalised ones."""
+    own = vecnormalize_for(model_path)
+    if own is not None:
+        return own
+    params_dir = run_params_dir(model_path, env_id)
+    if params_dir is None:
+        return None
+    if (params_dir / "vecnormalize.pkl").exists():
+        return params_dir / "vecnormalize.pkl"
+    norm = run_config(params_dir).get("normalize")
+    norm = eval_zoo_expr(norm) if isinstance(norm, str) else norm
+    if norm is True or (isinstance(norm, Mapping) and norm.get("norm_obs", True)):
+        raise ValueError(f"{model_path}: the run was trained with normalize but {params_dir}/vecnormalize.pkl "
+                         "does not exist; pass the statistics with --vecnormalize")
     return None
+
+
+def json_path(model_path: str | os.PathLike[str], path: str | os.PathLike[str]) -> Path:
+    """Where ``--json path`` goes: ``path`` if absolute, else relative to the model's folder (the run directory)."""
+    p = Path(path).expanduser()
+    return p if p.is_absolute() else Path(model_path).resolve().parent / p
 
 
 def wrapped_policy(agent: Any, vec_env_wrapper: Any) -> Any:
@@ -183,7 +215,8 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     """
     from baselines.metrics import evaluate_policy
 
-    policy = load_agent(model_path, algo, vecnormalize)
+    vn_path = Path(vecnormalize) if vecnormalize is not None else run_vecnormalize(model_path, env_id)
+    policy = load_agent(model_path, algo, vn_path)
     kw, dropped = scoring_env_kwargs(env_id, training_env_kwargs(model_path, env_id), reward, env_kwargs)
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
     seeds = [seed_base + k for k in range(int(episodes))]
@@ -193,7 +226,7 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     result = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
     result = dict(result)
     result["agent"] = {"model": str(model_path), "algo": algo or algo_of_model(model_path),
-                       "vecnormalize": str(vecnormalize or vecnormalize_for(model_path)), "seeds": seeds,
+                       "vecnormalize": str(vn_path), "seeds": seeds,
                        "env_kwargs": kw, "residual": residual, "features": feature_config(wrappers),
                        "reward": reward,
                        "training_reward_kwargs": dropped}
@@ -205,7 +238,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("model", help="model .zip (final, checkpoint or best_model)")
     ap.add_argument("--env", required=True)
     ap.add_argument("--episodes", type=int, default=10)
-    ap.add_argument("--json", default=None, help="write the metrics here")
+    ap.add_argument("--json", default=None, metavar="FILE",
+                    help="write the metrics here; a relative FILE is relative to the model's folder (the run "
+                         "directory), not the current directory")
     ap.add_argument("--seed-base", type=int, default=METRIC_SEED_BASE)
     ap.add_argument("--algo", default=None)
     ap.add_argument("--vecnormalize", default=None)
@@ -216,7 +251,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     res = evaluate_agent(a.model, a.env, a.episodes, a.seed_base, a.algo, a.vecnormalize, a.episode_steps,
                          reward=a.reward)
     if a.json:
-        write_json(a.json, res)
+        out = json_path(a.model, a.json)
+        write_json(out, res)
+        print(f"wrote {out}", file=sys.stderr)
     print(yaml.safe_dump({k: v for k, v in res.items() if not isinstance(v, list | dict)}, sort_keys=False)
           or str(res))
     return 0

@@ -15,7 +15,9 @@ retrained (``--retrain`` forces training).  ``--select best`` evaluates each run
 ``best_model.zip`` (the checkpoint with the best periodic evaluation on the validation seeds, see
 :mod:`agents.train`) instead of its final model; a run is then reused only if it was trained with
 the same periodic-evaluation settings.  The JSON lists one record per trial: the
-``train_info`` (timesteps, CPU and wall seconds, paths) and the ``metrics``.
+``train_info`` (timesteps, CPU and wall seconds, paths) and the ``metrics``.  Residual trials (hyperparameters
+with a wrapper of :mod:`agents.residual`) train and are reused under ``LOG_FOLDER/residual``
+(:func:`agents.common.run_log_folder`).
 """
 
 from __future__ import annotations
@@ -30,7 +32,17 @@ from typing import Any
 
 import yaml
 
-from agents.common import METRIC_SEED_BASE, env_name, read_json, run_dirs, write_json
+from agents.common import (
+    METRIC_SEED_BASE,
+    env_name,
+    read_hyperparams,
+    read_json,
+    run_args,
+    run_dirs,
+    run_env_kwargs,
+    run_log_folder,
+    write_json,
+)
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 
@@ -72,7 +84,6 @@ def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, see
     evaluation environment (its arguments resolved from the run's ``config.yml``, ``eval_reward`` and
     ``eval_kwargs``, so ``eval_reward`` only matters where the run has reward-only arguments).
     """
-    from agents.common import eval_zoo_expr
     from agents.evaluate import scoring_env_kwargs
 
     for d in reversed(run_dirs(log_folder, algo, env_id)):
@@ -83,12 +94,11 @@ def finished_run(log_folder: str | os.PathLike[str], env_id: str, algo: str, see
                 and Path(info["model"]).exists()):
             continue
         if evaluation is not None:
-            args_file, cfg_file = d / env_name(env_id) / "args.yml", d / env_name(env_id) / "config.yml"
-            if not (args_file.exists() and cfg_file.exists() and (d / "best_model.zip").exists()):
+            params_dir = d / env_name(env_id)
+            if not ((params_dir / "args.yml").exists() and (params_dir / "config.yml").exists()
+                    and (d / "best_model.zip").exists()):
                 continue
-            args = yaml.safe_load(args_file.read_text()) or {}
-            kw = (yaml.safe_load(cfg_file.read_text()) or {}).get("env_kwargs") or {}
-            kw = dict(eval_zoo_expr(kw) if isinstance(kw, str) else kw)
+            args, kw = run_args(params_dir), run_env_kwargs(params_dir)
             had = scoring_env_kwargs(env_id, kw, args.get("eval_reward", "training"), args.get("eval_kwargs"))[0]
             want = scoring_env_kwargs(env_id, kw, evaluation["eval_reward"], evaluation["eval_kwargs"])[0]
             if (args.get("eval_freq"), args.get("eval_episodes"), had) != (
@@ -129,8 +139,9 @@ def run_trial(trial: Mapping[str, Any]) -> dict[str, Any]:
 
     t = dict(trial)
     evaluation = selection_settings(t)
-    info = None if t.get("retrain") else finished_run(t["log_folder"], t["env_id"], t["algo"], t["seed"],
-                                                      t.get("timesteps"), evaluation)
+    wrapper = read_hyperparams(t["algo"], t["env_id"], t.get("hyperparams"), t.get("params")).get("vec_env_wrapper")
+    info = None if t.get("retrain") else finished_run(run_log_folder(t["log_folder"], wrapper), t["env_id"],
+                                                      t["algo"], t["seed"], t.get("timesteps"), evaluation)
     reused = info is not None
     if info is None:
         info = train(t["env_id"], t["algo"], t.get("timesteps"), t["seed"], t["log_folder"],

@@ -12,6 +12,11 @@ Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (rl-zoo3 format, key
 Environments are the native batched vector envs (:func:`vsa_gym.envs.sb3.make_sb3_vec_env`)
 under ``VecMonitor`` and ``VecNormalize``.
 
+Runs are rl-zoo3's (``config.yml`` and ``args.yml`` in its format, :mod:`agents.zoo`): ``python -m rl_zoo3.enjoy
+--algo ALGO --env ENV -f LOG --exp-id N --gym-packages vsa_gym`` loads them (the command is printed at the end).
+Residual agents go to ``LOG/residual`` (:func:`agents.common.run_log_folder`), so their run ids never collide
+with those of pure runs; rl-zoo3 reads them with ``-f LOG/residual``.
+
 Checkpoints (``rl_model_N_steps.*``) hold the model with its step count, the VecNormalize
 statistics and, for off-policy algorithms, the replay buffer.  They are written at the first
 loop boundary (start of a rollout collection) after every ``--save-freq`` timesteps, at the end,
@@ -56,14 +61,18 @@ from agents.common import (
     algo_class,
     checkpoints,
     env_name,
+    hyperparams_file,
     make_train_env,
     new_run_dir,
     process_hyperparams,
     read_hyperparams,
     read_json,
+    read_yaml,
     run_dirs,
+    run_log_folder,
     write_json,
 )
+from agents.zoo import write_args, zoo_args
 
 _SEGMENTS = "train_info.json"
 
@@ -72,7 +81,7 @@ class _GracefulStopError(Exception):
     """Raised at a loop boundary after a checkpoint, when a stop (Ctrl-C) was requested."""
 
 
-def _boundary_checkpoint(save_path: Path, save_freq: int, off_policy: bool) -> Any:
+def _boundary_checkpoint(save_path: Path, save_freq: int, off_policy: bool, params_path: Path) -> Any:
     """Checkpoints at SB3's loop boundary, the start of a rollout collection.
 
     There every counted timestep's transition is in the replay buffer and the preceding
@@ -96,7 +105,7 @@ def _boundary_checkpoint(save_path: Path, save_freq: int, off_policy: bool) -> A
         def _on_rollout_start(self) -> None:
             n = self.model.num_timesteps
             if (save_freq > 0 and n >= self.next_save) or self.stop_requested:
-                save_checkpoint(self.model, save_path, off_policy)
+                save_checkpoint(self.model, save_path, off_policy, params_path)
                 if save_freq > 0:
                     self.next_save = (n // save_freq + 1) * save_freq
             if self.stop_requested:
@@ -159,8 +168,13 @@ def _callbacks(save_path: Path, n_envs: int, eval_env: Any, eval_freq: int,
     return cbs
 
 
-def save_checkpoint(model: Any, save_path: Path, off_policy: bool) -> Path:
-    """Write ``rl_model_<N>_steps`` (model, VecNormalize, replay buffer) at the model's current step count."""
+def save_checkpoint(model: Any, save_path: Path, off_policy: bool, params_path: Path | None = None) -> Path:
+    """Write ``rl_model_<N>_steps`` (model, VecNormalize, replay buffer) at the model's current step count.
+
+    ``params_path`` (``SAVE_PATH/ENV_NAME``): also the statistics there as ``vecnormalize.pkl``, which rl-zoo3's
+    loaders use with every model of a run (also ``--load-checkpoint`` and ``--load-best``), so that they can read
+    an interrupted run too.
+    """
     n = int(model.num_timesteps)
     zip_path = save_path / f"rl_model_{n}_steps.zip"
     if off_policy and getattr(model, "replay_buffer", None) is not None:
@@ -168,6 +182,8 @@ def save_checkpoint(model: Any, save_path: Path, off_policy: bool) -> Path:
     vn = model.get_vec_normalize_env()
     if vn is not None:
         vn.save(str(save_path / f"rl_model_vecnormalize_{n}_steps.pkl"))
+        if params_path is not None:
+            vn.save(str(params_path / "vecnormalize.pkl"))
     model.save(str(zip_path))  # written last: a checkpoint counts once its zip exists
     return zip_path
 
@@ -175,9 +191,11 @@ def save_checkpoint(model: Any, save_path: Path, off_policy: bool) -> Path:
 def _find_resume_dir(log_folder: Path, algo: str, env_id: str, seed: int) -> Path:
     for d in reversed(run_dirs(log_folder, algo, env_id)):
         args = d / env_name(env_id) / "args.yml"
-        if args.exists() and int(yaml.safe_load(args.read_text()).get("seed", -1)) == seed:
+        if args.exists() and int((read_yaml(args) or {}).get("seed", -1)) == seed:
             return d
-    raise FileNotFoundError(f"no run of {algo} on {env_id} with seed {seed} under {log_folder} to resume")
+    raise FileNotFoundError(f"no run of {algo} on {env_id} with seed {seed} under {log_folder} to resume "
+                            "(residual runs are under LOG/residual: give the hyperparameters they were trained with, "
+                            "or --resume RUN_DIR)")
 
 
 def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: int = 0,
@@ -190,7 +208,9 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
     """Train (or resume) one agent; returns the run summary (also in ``SAVE_PATH/train_info.json``).
 
     ``resume``: ``True`` continues the newest run of (env, algo, seed) under ``log_folder``, a path
-    continues that run directory.  ``callbacks`` are extra SB3 callbacks (tests use them to interrupt).
+    continues that run directory.  Residual agents (a ``vec_env_wrapper`` of :mod:`agents.residual` in the
+    hyperparameters) go to ``log_folder/residual`` (:func:`agents.common.run_log_folder`), also when resuming.
+    ``callbacks`` are extra SB3 callbacks (tests use them to interrupt).
     Periodic evaluation (``eval_freq`` > 0): ``eval_episodes`` episodes on ``n_eval_envs`` rows (default:
     one row per episode), scored under ``eval_reward`` (``"default"`` or ``"training"``) with
     ``eval_kwargs`` applied last (module docstring).
@@ -210,15 +230,19 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
     cls = algo_class(algo)
 
     if resume:
-        save_path = Path(resume) if not isinstance(resume, bool) else _find_resume_dir(log_folder, algo, env_id, seed)
+        if isinstance(resume, bool):
+            wrapper = read_hyperparams(algo, env_id, hyperparams, params).get("vec_env_wrapper")
+            save_path = _find_resume_dir(run_log_folder(log_folder, wrapper), algo, env_id, seed)
+        else:
+            save_path = Path(resume)
         params_path = save_path / env_name(env_id)
-        saved = yaml.safe_load((params_path / "config.yml").read_text())
-        saved_args = yaml.safe_load((params_path / "args.yml").read_text())
-        seed = int(saved_args["seed"])
-        raw = dict(saved)
+        raw = dict(read_yaml(params_path / "config.yml") or {})
+        seed = int((read_yaml(params_path / "args.yml") or {})["seed"])
+        run_log = save_path.parent.parent
     else:
         raw = read_hyperparams(algo, env_id, hyperparams, params)
-        save_path = new_run_dir(log_folder, algo, env_id)
+        run_log = run_log_folder(log_folder, raw.get("vec_env_wrapper"), new_run=True)
+        save_path = new_run_dir(run_log, algo, env_id)
         params_path = save_path / env_name(env_id)
     hp = process_hyperparams(raw, n_actions=_n_actions(env_id, raw.get("env_kwargs")))
     total = int(timesteps) if timesteps is not None else hp["n_timesteps"]
@@ -236,10 +260,14 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
             print(f"{save_path}: already at {start_steps} >= {total} timesteps; nothing to do")
     else:
         (params_path / "config.yml").write_text(yaml.dump(dict(sorted(raw.items()))))
-        (params_path / "args.yml").write_text(yaml.dump({
-            "algo": algo, "env": env_id, "seed": seed, "n_timesteps": total, "hyperparams": str(hyperparams or ""),
+        write_args(params_path / "args.yml", zoo_args({
+            "algo": algo, "env": env_id, "seed": seed, "n_timesteps": total, "log_folder": str(run_log),
+            "conf_file": str(hyperparams_file(algo, hyperparams)), "hyperparams": dict(params) if params else None,
             "save_freq": save_freq, "eval_freq": eval_freq, "eval_episodes": eval_episodes,
-            "eval_reward": eval_reward, "eval_kwargs": dict(eval_kwargs or {})}))
+            "n_eval_envs": int(n_eval_envs or eval_episodes), "eval_reward": eval_reward,
+            "eval_kwargs": dict(eval_kwargs or {}), "device": device, "num_threads": num_threads,
+            "verbose": verbose, "progress": progress_bar,
+            "tensorboard_log": str(save_path / "tb") if tensorboard else ""}, raw))
         (params_path / "command.txt").write_text(" ".join(getattr(sys, "orig_argv", sys.argv)))
 
     env_seed = seed
@@ -265,7 +293,7 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
     else:
         model = cls(env=env, seed=seed, device=device, tensorboard_log=tb, verbose=verbose, **hp["model"])
 
-    ckpt_cb = _boundary_checkpoint(save_path, save_freq, off_policy)
+    ckpt_cb = _boundary_checkpoint(save_path, save_freq, off_policy, params_path)
     cbs = [ckpt_cb, *_callbacks(save_path, n_envs, eval_env, eval_freq, eval_episodes, callbacks, bool(resume))]
     status = "finished"
     remaining = max(total - int(model.num_timesteps), 0)
@@ -300,11 +328,8 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
         if previous is not None:
             signal.signal(signal.SIGINT, previous)
         if status == "finished":
-            save_checkpoint(model, save_path, off_policy)
+            save_checkpoint(model, save_path, off_policy, params_path)
             model.save(str(save_path / env_name(env_id)))
-            vn = model.get_vec_normalize_env()
-            if vn is not None:
-                vn.save(str(params_path / "vecnormalize.pkl"))
         env.close()
         if eval_env is not None:
             eval_env.close()
@@ -315,7 +340,8 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
                      "num_timesteps": int(model.num_timesteps), "status": status,
                      "cpu_s": sum(s["cpu_s"] for s in info["segments"]),
                      "wall_s": sum(s["wall_s"] for s in info["segments"]),
-                     "save_path": str(save_path), "model": str(save_path / f"{env_name(env_id)}.zip")})
+                     "save_path": str(save_path), "log_folder": str(run_log),
+                     "model": str(save_path / f"{env_name(env_id)}.zip")})
         write_json(save_path / _SEGMENTS, info)
     return info
 
@@ -393,6 +419,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                  eval_kwargs=a.eval_kwargs)
     print(f"{info['status']}: {info['num_timesteps']} timesteps, {info['cpu_s'] / 60:.2f} CPU min -> "
           f"{info['save_path']}")
+    run_id = Path(info["save_path"]).name.rsplit("_", 1)[1]
+    print(f"rl-zoo3: python -m rl_zoo3.enjoy --algo {a.algo} --env {a.env} -f {info['log_folder']} "
+          f"--exp-id {run_id} --gym-packages vsa_gym --no-render")
     return 0 if info["status"] == "finished" else 130
 
 
