@@ -7,7 +7,7 @@ the last observation in ``infos[i]["terminal_observation"]`` and sets
 ``infos[i]["TimeLimit.truncated"]`` for time-limit ends::
 
     from stable_baselines3 import PPO
-    from vsa_gym.envs import make_sb3_vec_env
+    from vsa_gym.envs.sb3 import make_sb3_vec_env
     venv = make_sb3_vec_env("vsa_gym/ELPAS-ForceTracking-v0", n_envs=16, seed=0)
     PPO("MlpPolicy", venv).learn(100_000)
 
