@@ -16,7 +16,7 @@ The row it returns (a flat dict, means over the episodes):
 * ``energy_J`` (signed electrical energy from the supply), ``energy_charged_J`` (regeneration
   clipped per step, the env's energy-term basis), ``peak_power_W`` (largest per-step mean
   electrical power);
-* ``violations`` (episodes ended by a constraint: end stop, I^2 t trip, tyre lift-off, bump
+* ``violations`` (episodes ended by a constraint, not by a Throw's release: end stop, I^2 t trip, tyre lift-off, bump
   stop) and ``violation_steps`` (steps with any ``margin_*`` <= 0, summed over episodes);
 * ``steps`` (mean episode length), ``return`` (mean episode return), ``metric`` (name of the
   environment's primary tracking metric, :data:`PRIMARY_METRIC`) and ``metric_value``;
@@ -177,7 +177,9 @@ def _run(env: Any, env_id: str, policy_factory: PolicyFactory, seeds: list[int],
             if key.startswith("margin_") and not key.startswith("_"):
                 bad |= np.asarray(v, dtype=np.float64) <= 0.0
         viol_steps += np.where(alive, bad, 0)
-        violations += np.where(alive & np.asarray(term), 1, 0)
+        # a Throw episode also ends on success (the release): that is not a violation
+        success = np.asarray(info["released"], dtype=bool) if "released" in info else np.zeros(n, dtype=bool)
+        violations += np.where(alive & np.asarray(term) & ~success, 1, 0)
         length += alive
         if return_traces:
             for key in ("force_error", "position_error", "log_stiffness_error", "weighted_accel"):
