@@ -6,6 +6,7 @@ from typing import Any
 
 import numba
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.devices.vsaut2.model import STATE
 from vsa_gym.devices.vsaut2.sensing_rows import K_FLOOR, N_COMMON_OBS
@@ -42,7 +43,7 @@ _R, _R_DOT = STATE["r"], STATE["r_dot"]  # state columns the compiled step can f
 class ThrowTask(VsaUT2Task):
     """Batched logic of :class:`VsaUT2ThrowEnv` (its docstring documents everything)."""
 
-    reward_terms = ("release", "failure")
+    reward_terms = ("release", "failure", "progress")
     step_info = (*ENERGY_INFO, *MARGIN_INFO, "released", "release_speed", "drive_enabled", "margin_energy")
     bool_info = ("released", "drive_enabled")
     trace_names = ("r", "r_dot", "ln K", "E_left", "i1", "i2")
@@ -58,6 +59,8 @@ class ThrowTask(VsaUT2Task):
         horizon_s: float = 1.0,
         initial_q1_fraction: float = 0.5,
         failure_penalty: float = 1.0,
+        shaping: float = 0.0,
+        shaping_gamma: float = 0.99,
         **kwargs: Any,
     ) -> None:
         # control_dt, control_mode, params, domain_randomization, sensor_noise, regen, ...: see VsaUT2Task
@@ -71,11 +74,18 @@ class ThrowTask(VsaUT2Task):
         self.release_angle, self.energy_budget = float(release_angle), float(energy_budget)
         self.horizon_s, self.q1_frac = float(horizon_s), float(initial_q1_fraction)
         self.failure_penalty = float(failure_penalty)
+        if not (np.isfinite(shaping) and shaping >= 0.0):
+            raise ValueError(f"shaping must be a finite weight >= 0, got {shaping}")
+        if not 0.0 < shaping_gamma <= 1.0:
+            raise ValueError(f"shaping_gamma must lie in (0, 1] (the agent's discount), got {shaping_gamma}")
+        self.shaping, self.shaping_gamma = float(shaping), float(shaping_gamma)
+        self.s["phi"] = np.zeros(self.n)  # the shaping potential of the current state (0 at rest)
         self._set_channels(self._common_channels() + [
             ObsChannel("energy_left", "J", 0.0, self.energy_budget, "energy budget not yet drawn"),
             ObsChannel("time_left", "s", 0.0, self.horizon_s, "time until the throw window closes"),
         ])
-        self._weights = np.array([self.release_angle, self.energy_budget, self.horizon_s, self.failure_penalty])
+        self._weights = np.array([self.release_angle, self.energy_budget, self.horizon_s, self.failure_penalty,
+                                  self.shaping, self.shaping_gamma])
 
 
     def _reset_rows(self, rows: np.ndarray) -> None:
@@ -84,12 +94,13 @@ class ThrowTask(VsaUT2Task):
         for i in rows:
             p = self.row_params[int(i)]
             self.s["x"][i] = self._row_model(int(i)).initial_state(1, q1=self.q1_frac * float(p.q1_max))[0]
+            self.s["phi"][i] = shaping_potential(self.s["x"][i, _R], self.s["x"][i, _R_DOT], self._weights)
         self._reset_sensors(rows)
 
     def _build_kernel_args(self) -> tuple[Any, ...]:
         s = self.s
         return (s["x"], self.model.p_rows, self.model.d_rows, self._row_cols(), self._cfg, self._weights,
-                s["drive"], s["t"], self._obs_lo64, self._obs_hi64, s["obs"])
+                s["drive"], s["t"], s["phi"], self._obs_lo64, self._obs_hi64, s["obs"])
 
     def _observe(self, rows: np.ndarray) -> np.ndarray:
         c = self._common_obs(rows)
@@ -112,16 +123,28 @@ class ThrowTask(VsaUT2Task):
 
 
 # ---------------------------------------------------------------------------- compiled task step
+SHAPING_SPEED = 5.0
+"""rad/s: the potential's worth of reaching the release angle (about a good throw's release speed)."""
+
+
+@register_jitable
+def shaping_potential(r: float, r_dot: float, w: np.ndarray) -> float:
+    """The progress potential ``Phi = shaping (SHAPING_SPEED clip(r / release_angle, 0, 1) + max(r_dot, 0))``
+    (rad/s): how far and how fast the output is on its way to the release."""
+    return w[4] * (SHAPING_SPEED * min(max(r / w[0], 0.0), 1.0) + max(r_dot, 0.0))
+
+
 @numba.njit(cache=True)
 def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: np.ndarray, cfg: np.ndarray,
-                w: np.ndarray, drv: np.ndarray, t: np.ndarray, lo: np.ndarray, hi: np.ndarray, obs: np.ndarray,
-                out: np.ndarray) -> int:
+                w: np.ndarray, drv: np.ndarray, t: np.ndarray, phi: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                obs: np.ndarray, out: np.ndarray) -> int:
     """One control step of the task for every row in one call (what ``step`` returns, up to ``info``).
 
     The drive and core step of all rows (switched off where the budget is spent;
     :func:`~vsa_gym.devices.vsaut2.task.drive_all`), then per row: energy, release, margins, failure and the
     reward terms into ``out[:, i]`` (``step_info``, the reward terms, the ``OUT_*`` tail), the time and the
-    noise-free clipped observation.  ``w = [release_angle, energy_budget, horizon_s, failure_penalty]``.
+    noise-free clipped observation.  ``w = [release_angle, energy_budget, horizon_s, failure_penalty, shaping,
+    shaping_gamma]``; ``phi`` the rows' shaping potentials, replaced by the new state's.
     Returns ``STATUS_BAD_ACTION`` or ``STATUS_BAD_STATE`` (nothing changed), else 0.
     """
     if not actions_finite(a):
@@ -135,7 +158,7 @@ def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: n
     clipped = np.empty(n, dtype=np.bool_)
     if not drive_all(a, x, np.zeros(n), enabled, P, D, C, cfg, drv, e_m, clipped):
         return STATUS_BAD_STATE
-    m = len(ENERGY_INFO) + len(MARGIN_INFO) + 4 + 2
+    m = len(ENERGY_INFO) + len(MARGIN_INFO) + 4 + 3
     o = np.empty(N_COMMON_OBS + 2)
     for i in range(n):
         energy_row(i, e_m, drv, cfg, out)
@@ -146,8 +169,15 @@ def _throw_rows(a: np.ndarray, x: np.ndarray, P: np.ndarray, D: np.ndarray, C: n
         r_fail = -w[3] if fail else 0.0
         out[10, i], out[11, i] = 1.0 if released else 0.0, r_dot if released else 0.0
         out[12, i], out[13, i] = 1.0 if enabled[i] else 0.0, w[1] - drv[i, D_E_CH]
-        out[14, i], out[15, i] = r_rel, r_fail
-        out[m + OUT_REWARD, i] = 0.0 + r_rel + r_fail  # the reward: the sum of the terms, in term order
+        # potential-based shaping (Ng et al. 1999): gamma Phi(s') - Phi(s), Phi = 0 once the episode ends (release,
+        # failure, the window closed), so it changes no policy's ranking under the agent's discount gamma
+        t_next = t[i] + cfg[C_DT]
+        ended = released or fail or t_next >= w[2] - 0.5 * cfg[C_DT]
+        phi_next = 0.0 if ended else shaping_potential(r, r_dot, w)
+        r_prog = w[5] * phi_next - phi[i]
+        phi[i] = phi_next
+        out[14, i], out[15, i], out[16, i] = r_rel, r_fail, r_prog
+        out[m + OUT_REWARD, i] = 0.0 + r_rel + r_fail + r_prog  # the reward: the sum of the terms, in term order
         out[m + OUT_FAIL, i] = 1.0 if released or fail else 0.0
         out[m + OUT_CLIPPED, i] = 1.0 if clipped[i] else 0.0
         t[i] = t[i] + cfg[C_DT]  # the time after the step
@@ -188,8 +218,13 @@ class VsaUT2ThrowEnv(TaskEnv):
 {_OBS_DOC}
 
     ## Rewards
-    ``reward = release + failure``: ``release = max(r_dot, 0)`` (rad/s, true output speed) on
-    the release step, else 0; ``failure = -failure_penalty`` (1) on a failure step.  The energy
+    ``reward = release + failure + progress``: ``release = max(r_dot, 0)`` (rad/s, true output speed) on
+    the release step, else 0; ``failure = -failure_penalty`` (1) on a failure step; ``progress`` (0 unless
+    ``shaping > 0``) is potential-based shaping (Ng, Harada & Russell 1999) that gives a learner a signal on
+    every step: ``gamma Phi(s') - Phi(s)`` with ``Phi = shaping (5 rad/s clip(r / release_angle, 0, 1) +
+    max(r_dot, 0))``, ``Phi = 0`` once the episode ends and ``gamma = shaping_gamma`` (set it to the agent's
+    discount).  Every episode's discounted return is then the unshaped one (``Phi = 0`` at rest), so the best
+    policy is unchanged and the score stays the release speed (``info["release_speed"]``).  The energy
     enters as a budget, not as a cost; ``info`` still carries ``energy_el``, ``energy_charged``,
     their totals, ``margin_energy`` (J left), the constraint margins, ``released`` and
     ``release_speed``.
@@ -206,7 +241,7 @@ class VsaUT2ThrowEnv(TaskEnv):
     ``control_dt`` (2 ms), ``control_mode``, ``params``, ``domain_randomization``, ``sensor_noise``,
     ``regen`` ("clip"), ``render_mode``, ``release_angle`` (rad), ``energy_budget`` (J), ``horizon_s``
     (s, only for the ``time_left`` observation: set it with the time limit),
-    ``initial_q1_fraction``, ``failure_penalty``, and the drive options of
+    ``initial_q1_fraction``, ``failure_penalty``, ``shaping`` (0), ``shaping_gamma`` (0.99), and the drive options of
     :class:`vsa_gym.devices.vsaut2.task.VsaUT2Task`.
 
     ## Version history
