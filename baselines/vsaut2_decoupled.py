@@ -135,8 +135,7 @@ class VsaUT2Decoupled:
         (:func:`vsa_gym.physics.dc_motor.foldback_current`, which the environments' drives apply too) with this
         controller's ``i2t_foldback`` and ``i_foldback``."""
         lo, hi = self.config.i2t_foldback
-        u = np.atleast_1d(np.asarray(utilisation, dtype=np.float64))
-        return np.array([foldback_current(i_max, self.config.i_foldback, float(v), lo, hi) for v in u])
+        return foldback_current(i_max, self.config.i_foldback, np.asarray(utilisation, dtype=np.float64), lo, hi)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         cfg, p = self.config, self.p
@@ -204,8 +203,8 @@ class VsaUT2Decoupled:
         lim1 = self.foldback_current(self.m1.I_max, o[:, g["i2t_1"]])
         lim2 = self.foldback_current(self.m2.I_max, o[:, g["i2t_2"]])
         # (only while folding back: at I_max the amplifier's own limit acts, on the true speed)
-        u1 = np.array([current_limited_voltage(self.m1, a, w, lim) for a, w, lim in np.broadcast(u1, w1, lim1)])
-        u2 = np.array([current_limited_voltage(self.m2, a, w, lim) for a, w, lim in np.broadcast(u2, w2, lim2)])
+        u1 = current_limited_voltage(self.m1, u1, w1, lim1)
+        u2 = current_limited_voltage(self.m2, u2, w2, lim2)
         u1, u2 = np.clip(u1, -self.u1_max, self.u1_max), np.clip(u2, -self.u2_max, self.u2_max)
         # conditional integration (anti-windup): freeze where a limit holds the voltage in the error's direction
         sat2 = (u2 != u2_free) & (np.sign(u2_free) == np.sign(e2))

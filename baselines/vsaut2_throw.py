@@ -36,10 +36,10 @@ import numpy as np
 from scipy.optimize import minimize
 
 import vsa_gym  # noqa: F401  (registers the ids)
+from vsa_gym.devices.vsaut2.layout import STATE
 
 THROW = "vsa_gym/VsaUT2-Throw-v0"
-R_COLUMN = 8  # vsaUT-II state column of the output angle r (vsa_gym.devices.vsaut2.layout STATE["r"])
-Q1_COLUMN = 1  # pivot motor angle th1 (the pivot drift of a held stiffness)
+R_COLUMN, TH1_COLUMN = STATE["r"], STATE["th1"]  # the output angle; the pivot motor angle (a held stiffness' drift)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,9 +92,9 @@ def rollout(actions: np.ndarray, segment_steps: int, *, initial_q1_fraction: flo
     m, n_seg, _ = actions.shape
     kw = {"initial_q1_fraction": initial_q1_fraction, **dict(env_kwargs or {})}
     env = gym.make_vec(THROW, num_envs=m, **kw)
-    task = env.unwrapped.task if hasattr(env.unwrapped, "task") else env.task
+    task = env.unwrapped.task
     env.reset(seed=[seed] * m)
-    th1_0 = task.s["x"][:, Q1_COLUMN].copy()
+    th1_0 = task.s["x"][:, TH1_COLUMN].copy()
     dt = float(task.control_dt)
     done = np.zeros(m, dtype=bool)
     released = np.zeros(m, dtype=bool)
@@ -111,7 +111,7 @@ def rollout(actions: np.ndarray, segment_steps: int, *, initial_q1_fraction: flo
         x = task.s["x"]
         # rows that ended this step were reset by the env after the step (next-step autoreset keeps the state)
         peak_r[live] = np.maximum(peak_r[live], x[live, R_COLUMN])
-        drift[live] = np.maximum(drift[live], np.abs(x[live, Q1_COLUMN] - th1_0[live]))
+        drift[live] = np.maximum(drift[live], np.abs(x[live, TH1_COLUMN] - th1_0[live]))
         end = live & (np.asarray(term) | np.asarray(trunc))
         rel = end & np.asarray(info["released"], dtype=bool)
         released[rel] = True

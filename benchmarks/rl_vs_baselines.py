@@ -242,7 +242,7 @@ def mark_stale(trials: list[dict[str, Any]]) -> list[str]:
     than the current file (its ``config.yml`` differs); returns those runs' directories."""
     import yaml
 
-    from agents.common import env_name, read_hyperparams
+    from agents.common import env_name, read_hyperparams, read_yaml
     from agents.sweep import finished_run, selection_settings
 
     stale = []
@@ -254,7 +254,7 @@ def mark_stale(trials: list[dict[str, Any]]) -> list[str]:
         cfg = Path(info["save_path"]) / env_name(t["env_id"]) / "config.yml"
         want = yaml.safe_load(yaml.dump(dict(sorted(read_hyperparams(t["algo"], t["env_id"],
                                                                      t.get("hyperparams")).items()))))
-        if not cfg.exists() or yaml.safe_load(cfg.read_text()) != want:
+        if not cfg.exists() or read_yaml(cfg) != want:  # ours or rl-zoo3's (OrderedDict) config.yml
             t["retrain"] = True
             stale.append(str(info["save_path"]))
     return stale
@@ -262,11 +262,10 @@ def mark_stale(trials: list[dict[str, Any]]) -> list[str]:
 
 def residual_envs() -> dict[str, str]:
     """``env_id -> baseline`` of the residual entries in ``agents/hyperparams/ppo_residual.yml``."""
-    import yaml
-
+    from agents.common import read_yaml
     from agents.residual import residual_config
 
-    table_ = yaml.safe_load(RESIDUAL_HYPERPARAMS.read_text())
+    table_ = read_yaml(RESIDUAL_HYPERPARAMS)
     return {env_id: str((residual_config(hp.get("vec_env_wrapper")) or {}).get("baseline"))
             for env_id, hp in table_.items()}
 

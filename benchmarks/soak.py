@@ -42,10 +42,10 @@ from vsa_gym.envs import ENV_IDS
 from vsa_gym.envs.randomization import relative_ranges
 
 MODES = ("voltage", "current")
-#: +-20 % domain randomisation per device (paths into the device's parameter set)
-RANDOMIZED = {
-    "VsaUT2": (VsaUT2Params(), {"lever.k": 0.2, "I_o": 0.2, "frame_motor.R": 0.2}),
-    "ELPAS": (ElpasParams(), {"friction.F_c": 0.2, "motor.R": 0.2, "drive.J_r": 0.2}),
+#: +-20 % domain randomisation per device parameter set (paths into it)
+RANDOMIZED: dict[type, dict[str, float]] = {
+    VsaUT2Params: {"lever.k": 0.2, "I_o": 0.2, "frame_motor.R": 0.2},
+    ElpasParams: {"friction.F_c": 0.2, "motor.R": 0.2, "drive.J_r": 0.2},
 }
 
 Pattern = Callable[[np.random.Generator, int, int, int, np.ndarray], np.ndarray]
@@ -84,12 +84,13 @@ PATTERNS: dict[str, Pattern] = {"extremes": _extremes, "flip": _flip, "bursts": 
 
 
 def randomization_for(env_id: str) -> dict[str, tuple[float, float]]:
-    """The +-20 % ranges of the device of ``env_id``."""
-    name = env_id.split("/", 1)[1]
-    for prefix, (params, fractions) in RANDOMIZED.items():
-        if name.startswith(prefix):
-            return relative_ranges(params, fractions)
-    raise KeyError(f"no randomisation declared for {env_id}; add its device to RANDOMIZED")
+    """The +-20 % ranges around the nominal parameters of ``env_id``'s device."""
+    env = gym.make_vec(env_id, num_envs=1)
+    params = env.unwrapped.task.base_rows[0]
+    env.close()
+    if type(params) not in RANDOMIZED:
+        raise KeyError(f"no randomisation declared for {type(params).__name__} ({env_id}); add it to RANDOMIZED")
+    return relative_ranges(params, RANDOMIZED[type(params)])
 
 
 def _non_finite(obs: Any, reward: np.ndarray, info: dict[str, Any]) -> int:
@@ -104,9 +105,11 @@ def _non_finite(obs: Any, reward: np.ndarray, info: dict[str, Any]) -> int:
     return bad
 
 
-def soak_one(env_id: str, mode: str, pattern: str, steps: int, rows: int, seed: int) -> dict[str, Any]:
-    """Drive ``rows`` rows of ``env_id`` for about ``steps`` env-steps with one action pattern."""
-    env = gym.make_vec(env_id, num_envs=rows, control_mode=mode, domain_randomization=randomization_for(env_id))
+def soak_one(env_id: str, mode: str, pattern: str, steps: int, rows: int, seed: int,
+             ranges: dict[str, tuple[float, float]]) -> dict[str, Any]:
+    """Drive ``rows`` rows of ``env_id`` for about ``steps`` env-steps with one action pattern, the parameters
+    randomised over ``ranges`` (:func:`randomization_for`)."""
+    env = gym.make_vec(env_id, num_envs=rows, control_mode=mode, domain_randomization=ranges)
     rng = np.random.default_rng(seed)
     d = int(np.prod(env.single_action_space.shape))
     state = np.zeros((rows, d))
@@ -151,9 +154,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'id':38s} {'mode':8s} {'pattern':9s} {'steps':>7s} {'non-finite':>10s} {'ended':>6s} {'trunc':>6s}"
           "  ended by")
     for env_id in a.ids:
+        ranges = randomization_for(env_id)
         for mode in MODES:
             for j, pattern in enumerate(PATTERNS):
-                r = soak_one(env_id, mode, pattern, share, a.rows, a.seed + 1000 * j)
+                r = soak_one(env_id, mode, pattern, share, a.rows, a.seed + 1000 * j, ranges)
                 results.append(r)
                 by = ", ".join(f"{k} {v}" for k, v in r["ended_by"].items()) or "-"
                 print(f"{env_id:38s} {mode:8s} {pattern:9s} {r['env_steps']:7d} {r['non_finite']:10d} "

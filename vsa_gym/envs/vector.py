@@ -28,7 +28,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from vsa_gym.envs.task import BatchedTask
+from vsa_gym.envs.task import BatchedTask, horizon_from_time_limit
 
 
 class TaskVectorEnv(VectorEnv):
@@ -38,11 +38,16 @@ class TaskVectorEnv(VectorEnv):
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 25,
                                           "autoreset_mode": AutoresetMode.NEXT_STEP}
     render_size: ClassVar[tuple[int, int]] = (480, 720)
+    #: tasks whose failure charges the steps an episode skipped take the time limit as their ``episode_steps``
+    #: (the horizon of that charge) unless ``episode_steps`` is given
+    time_limit_is_horizon: ClassVar[bool] = False
 
     def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, render_mode: str | None = None,
                  autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP, **task_kwargs: Any) -> None:
         if render_mode is not None and render_mode not in ("rgb_array",):
             raise ValueError(f"vector render_mode must be 'rgb_array' or None, got {render_mode!r}")
+        if self.time_limit_is_horizon:
+            horizon_from_time_limit(max_episode_steps, task_kwargs)
         self.task = self.task_cls(num_envs, **task_kwargs)
         self.task.record_history = render_mode is not None
         self.num_envs = self.task.n

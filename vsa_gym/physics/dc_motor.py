@@ -24,10 +24,12 @@ Shapes: every argument is a float or an array broadcastable to ``(n,)``.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 from numba.extending import register_jitable
 
+from vsa_gym.physics.kernels import select
 from vsa_gym.physics.parameters import ParameterSet, param
 
 
@@ -101,7 +103,7 @@ def current_control_voltage(
 
 
 @register_jitable
-def foldback_current(i_max: float, i_fold: float, utilisation: float, start: float, end: float) -> float:
+def foldback_current(i_max: Any, i_fold: float, utilisation: Any, start: float, end: float) -> Any:
     """The I^2 t foldback of a servo amplifier's current limit (A).
 
     When the amplifier's I^2 t protection fills up it does not switch off: it folds its current limit back
@@ -109,20 +111,20 @@ def foldback_current(i_max: float, i_fold: float, utilisation: float, start: flo
     drops to the continuous current when the thermal integral is used up).  The limit is ``i_max`` up to the
     ``utilisation`` (heating state over trip threshold) ``start``, ``i_fold`` from ``end`` on, linear in between;
     with ``i_fold`` below the nominal current the heating state drains at the folded limit, so the trip (
-    ``utilisation = 1``) is not reached by the drive's own current.  ``start >= end``: no foldback.
+    ``utilisation = 1``) is not reached by the drive's own current.  ``start >= end``: no foldback.  Floats
+    (the compiled drive step) or arrays (a controller's rows).
     """
     if end <= start:
         return i_max
-    f = min(max((utilisation - start) / (end - start), 0.0), 1.0)
-    return i_max - (i_max - min(i_fold, i_max)) * f
+    f = np.minimum(np.maximum((utilisation - start) / (end - start), 0.0), 1.0)
+    return i_max - (i_max - np.minimum(i_fold, i_max)) * f
 
 
 @register_jitable
-def current_limited_voltage(p: DCMotorParams, u: float, omega: float, i_lim: float) -> float:
+def current_limited_voltage(p: DCMotorParams, u: Any, omega: Any, i_lim: Any) -> Any:
     """The voltage command clamped to a current limit ``i_lim`` below ``I_max``: ``k_e omega +- R i_lim`` (the
     quasi-static current limit, as :func:`applied_voltage` does at ``I_max``; the current settles within
-    ``L/R``).  At ``i_lim >= I_max`` the command is returned unchanged (the amplifier's own limit acts)."""
-    if i_lim >= p.I_max:
-        return u
+    ``L/R``).  At ``i_lim >= I_max`` the command is returned unchanged (the amplifier's own limit acts).  Floats
+    or arrays, as :func:`foldback_current`."""
     emf = p.k_e * omega
-    return min(max(u, emf - p.R * i_lim), emf + p.R * i_lim)
+    return select(i_lim >= p.I_max, u, np.minimum(np.maximum(u, emf - p.R * i_lim), emf + p.R * i_lim))

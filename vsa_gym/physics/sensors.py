@@ -17,10 +17,41 @@ tests and identification can separate measurement effects from physics.
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
+from numba.extending import register_jitable
 
 from vsa_gym.physics.parameters import ParameterSet, param
+
+
+@register_jitable
+def floor_quantize(x: Any, step: float) -> Any:
+    """``floor(x / step) step``: what an incremental encoder (or any floor quantiser) reads; ``step = 0``: exact.
+
+    Jitable: the environments' compiled sensing and the numpy sensors and record generators call the same
+    function, on scalars or arrays.
+    """
+    if step == 0.0:
+        return x
+    return np.floor(x / step) * step
+
+
+@register_jitable
+def round_quantize(x: Any, step: float) -> Any:
+    """``round(x / step) step``: a rounding quantiser (an absolute encoder, an ADC); ``step = 0``: exact."""
+    if step == 0.0:
+        return x
+    return np.round(x / step) * step
+
+
+@register_jitable
+def absolute_encoder_angle(theta: Any, step: float, gain_mismatch: float) -> Any:
+    """An absolute magnetic encoder's reading: ``theta + A_gm sin(2 theta)`` rounded to ``step``; ``step = 0``:
+    exact."""
+    if step == 0.0:
+        return theta
+    return round_quantize(theta + gain_mismatch * np.sin(2.0 * theta), step)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -36,8 +67,7 @@ class IncrementalEncoder(ParameterSet):
         """Quantised angle ``floor(theta N / 2 pi) 2 pi / N`` (rad); shape of ``theta``."""
         if not self.enabled:
             return np.asarray(theta, dtype=np.float64)
-        step = 2.0 * np.pi / self.pulses_per_rev
-        return np.floor(np.asarray(theta) / step) * step
+        return floor_quantize(np.asarray(theta), 2.0 * np.pi / self.pulses_per_rev)
 
     @property
     def resolution(self) -> float | np.ndarray:
@@ -60,9 +90,7 @@ class AbsoluteEncoder(ParameterSet):
         theta = np.asarray(theta, dtype=np.float64)
         if not self.enabled:
             return theta
-        step = 2.0 * np.pi / 2.0**self.bits
-        raw = theta + self.gain_mismatch * np.sin(2.0 * theta)
-        return np.round(raw / step) * step
+        return absolute_encoder_angle(theta, 2.0 * np.pi / 2.0**self.bits, self.gain_mismatch)
 
     @property
     def resolution(self) -> float | np.ndarray:

@@ -19,6 +19,7 @@ from vsa_gym.devices.drive.effects import SYNTHETIC
 from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.library import signed_effects, synthetic_ranges
 from vsa_gym.identify.record import FORMAT, Record, load_record
+from vsa_gym.physics.sensors import floor_quantize
 
 #: realistic magnitude ranges per effect of the drive, and the effects whose sign is drawn too (declared in the
 #: drive's effect library, :mod:`vsa_gym.devices.drive.effects`)
@@ -76,7 +77,7 @@ def make_drive_record(seed: int, effect: str | None = "random", duration: float 
     # the truth before the sensor's quantiser (the adapter's model of the quantiser bias is taken out)
     y = ad.simulate({k: np.array([v]) for k, v in truth.items()}, 1)[:, 0, 0] - ad.measurement[0].bias
     y = y + NOISE_STD * rng.standard_normal(y.shape)
-    y = np.floor(y / ENCODER_STEP) * ENCODER_STEP
+    y = floor_quantize(y, ENCODER_STEP)
     table["x"] = y
     rec = load_record("synthetic.csv", meta=meta, table=table)
     return rec, {"effect": effect, "params": truth}

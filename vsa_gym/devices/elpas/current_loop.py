@@ -38,12 +38,17 @@ class ElpasCurrentLoop:
     I_m_max: float = 28.0  # V, integrator clamp
 
 
+def core_substeps(h: float) -> int:
+    """The core's substeps over a held-voltage interval ``h``: as few as keep each at most ``SUBSTEP_MAX``."""
+    return max(1, int(np.ceil(h / SUBSTEP_MAX - 1e-9)))
+
+
 def loop_steps(control_dt: float) -> tuple[int, float, int]:
     """``(n_inner, h, n_sub)`` of the current loop over one control step: ``n_inner`` loop steps of ``h`` (about
-    ``CURRENT_LOOP_DT``), each ``n_sub`` core substeps of at most ``SUBSTEP_MAX``."""
+    ``CURRENT_LOOP_DT``), each ``n_sub`` core substeps of at most ``SUBSTEP_MAX`` (:func:`core_substeps`)."""
     n_inner = max(1, int(round(control_dt / CURRENT_LOOP_DT)))
     h = control_dt / n_inner
-    return n_inner, h, max(1, int(np.ceil(h / SUBSTEP_MAX - 1e-9)))
+    return n_inner, h, core_substeps(h)
 
 
 @register_jitable

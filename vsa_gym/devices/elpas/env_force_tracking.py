@@ -43,7 +43,6 @@ from vsa_gym.envs.task import (
     actions_finite,
     failure_charge,
     failure_horizon,
-    horizon_from_time_limit,
     indent,
     obs_table,
 )
@@ -306,7 +305,4 @@ class ElpasForceTrackingVectorEnv(TaskVectorEnv):
     task's ``episode_steps`` (the horizon of the failure charge) unless ``episode_steps`` is given."""
 
     task_cls = ForceTrackingTask
-
-    def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, **kwargs: Any) -> None:
-        horizon_from_time_limit(max_episode_steps, kwargs)
-        super().__init__(num_envs, max_episode_steps=max_episode_steps, **kwargs)
+    time_limit_is_horizon = True

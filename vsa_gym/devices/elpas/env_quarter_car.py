@@ -46,7 +46,6 @@ from vsa_gym.envs.task import (
     actions_finite,
     failure_charge,
     failure_horizon,
-    horizon_from_time_limit,
     indent,
     obs_table,
 )
@@ -433,7 +432,4 @@ class ElpasQuarterCarVectorEnv(TaskVectorEnv):
     """
 
     task_cls = QuarterCarTask
-
-    def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, **kwargs: Any) -> None:
-        horizon_from_time_limit(max_episode_steps, kwargs)
-        super().__init__(num_envs, max_episode_steps=max_episode_steps, **kwargs)
+    time_limit_is_horizon = True

@@ -25,6 +25,7 @@ from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.library import main_parameters, signed_effects, synthetic_ranges
 from vsa_gym.identify.record import FORMAT, Record, load_record
 from vsa_gym.identify.recovery import SyntheticBench
+from vsa_gym.physics.sensors import floor_quantize
 
 #: realistic magnitude ranges per effect, and the effects whose sign is drawn too (declared in the eLPAS's effect
 #: library, :mod:`vsa_gym.devices.elpas.effects`)
@@ -101,7 +102,7 @@ def make_elpas_record(seed: int, effect: str | None = "random", kind: str = "sin
     y = ad.simulate({k: np.array([v]) for k, v in truth.items()}, 1)[:, 0, :]
     table["F"] = y[:, 0] + FORCE_NOISE * rng.standard_normal(len(t))
     gamma = y[:, 1] - ad.measurement[1].bias  # undo the adapter's model of the quantiser, then quantise
-    table["gamma"] = np.floor(gamma / GAMMA_STEP) * GAMMA_STEP
+    table["gamma"] = floor_quantize(gamma, GAMMA_STEP)
     meta["initial_state"] = {"gamma": ad.gamma0}
     rec = load_record("synthetic.csv", meta=meta, table=table)
     return rec, {"effect": effect, "params": truth}

@@ -34,7 +34,7 @@ from numba.extending import register_jitable
 
 from vsa_gym.devices.elpas import model as em
 from vsa_gym.devices.elpas.cone import spring_unchecked
-from vsa_gym.devices.elpas.current_loop import CURRENT_LOOP_DT, SUBSTEP_MAX, ElpasCurrentLoop, current_loop_row
+from vsa_gym.devices.elpas.current_loop import ElpasCurrentLoop, core_substeps, current_loop_row, loop_steps
 from vsa_gym.devices.elpas.params import ElpasAlphaEncoder, ElpasMotorEncoder, ElpasParams, NumericsParams
 from vsa_gym.envs.randomization import DomainRandomization
 from vsa_gym.envs.sensing import NoiseSpec, add_noise, i2t_limit, i2t_update, lowpass_gain, update_velocity
@@ -46,6 +46,7 @@ from vsa_gym.envs.task import (
     RegenPolicy,
     clip_obs_row,
 )
+from vsa_gym.physics.sensors import absolute_encoder_angle, floor_quantize
 
 # entries of the drive configuration array ``ElpasTask._cfg`` read by the compiled step
 (C_DT, C_H, C_N_INNER, C_N_SUB, C_CURRENT_MODE, C_P_M, C_I_M, C_I_M_MAX, C_I_NOM, C_V_GAIN, C_ENC_MOTOR,
@@ -103,12 +104,12 @@ class ElpasTask(CompiledStepTask):
             self.randomization.check(base)
             if any(k.startswith("numerics.") for k in self.randomization.ranges):
                 raise ValueError("domain_randomization: numerics (dt, n_sub) cannot be randomised")
-        if control_mode == "current":
-            self.n_inner = max(1, int(round(self.control_dt / CURRENT_LOOP_DT)))
+        if control_mode == "current":  # the 10 kHz loop's steps (the identification replay runs the same)
+            self.n_inner, h, n_sub = loop_steps(self.control_dt)
         else:
-            self.n_inner = 1
-        h = self.control_dt / self.n_inner
-        self.numerics = NumericsParams(dt=h, n_sub=float(max(1, int(np.ceil(h / SUBSTEP_MAX - 1e-9)))))
+            self.n_inner, h = 1, self.control_dt
+            n_sub = core_substeps(h)
+        self.numerics = NumericsParams(dt=h, n_sub=float(n_sub))
         self.base_rows = [base.index(i) if bs is not None else base for i in range(self.n)]
         self.row_params = list(self.base_rows)
         self._build_params()
@@ -342,13 +343,8 @@ def drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarra
         finite = finite and np.isfinite(xr[j])
     i2t[i] = i2t_update(i2t[i], xr[em.CURRENT] ** 2, cfg[C_I_NOM], dt)
     N = p.drive.N
-    g = N * xr[em.GAMMA]
-    if cfg[C_ENC_MOTOR] != 0.0:
-        g = np.floor(g / cfg[C_ENC_MOTOR]) * cfg[C_ENC_MOTOR]
-    m0 = g / N
-    a = xr[em.ALPHA]
-    if cfg[C_ENC_ALPHA] != 0.0:
-        a = np.round((a + cfg[C_ENC_GM] * np.sin(2.0 * a)) / cfg[C_ENC_ALPHA]) * cfg[C_ENC_ALPHA]
+    m0 = floor_quantize(N * xr[em.GAMMA], cfg[C_ENC_MOTOR]) / N
+    a = absolute_encoder_angle(xr[em.ALPHA], cfg[C_ENC_ALPHA], cfg[C_ENC_GM])
     vel[i, 0] = update_velocity(meas[i, 0], m0, vel[i, 0], dt, cfg[C_V_GAIN])
     vel[i, 1] = update_velocity(meas[i, 1], a, vel[i, 1], dt, cfg[C_V_GAIN])
     meas[i, 0], meas[i, 1] = m0, a

@@ -36,7 +36,6 @@ from vsa_gym.envs.task import (
     clip_obs_row,
     failure_charge,
     failure_horizon,
-    horizon_from_time_limit,
     indent,
     obs_table,
 )
@@ -352,7 +351,4 @@ class VsaUT2PositionStiffnessVectorEnv(TaskVectorEnv):
     """
 
     task_cls = PositionStiffnessTask
-
-    def __init__(self, num_envs: int = 1, *, max_episode_steps: int | None = None, **kwargs: Any) -> None:
-        horizon_from_time_limit(max_episode_steps, kwargs)
-        super().__init__(num_envs, max_episode_steps=max_episode_steps, **kwargs)
+    time_limit_is_horizon = True

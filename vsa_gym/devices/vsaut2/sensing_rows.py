@@ -17,6 +17,7 @@ from vsa_gym.devices.vsaut2.lever import spring_stiffness
 from vsa_gym.devices.vsaut2.model import P_ROW, STATE
 from vsa_gym.devices.vsaut2.pivot import pivot_position
 from vsa_gym.envs.sensing import i2t_update, update_velocity
+from vsa_gym.physics.sensors import absolute_encoder_angle, floor_quantize
 
 K_FLOOR = 0.1  # N m/rad, floor of the stiffness before taking its log (eq. 6 turns negative past 45 deg)
 N_COMMON_OBS = 11  # channels of VsaUT2Task._common_channels (the tasks append theirs after these)
@@ -44,9 +45,8 @@ def sense_update(x: np.ndarray, meas: np.ndarray, vel: np.ndarray, i2t: np.ndarr
             i2t[i, j] = i2t_update(i2t[i, j], x[i, col] ** 2, i_nom, dt)
         m = np.empty(3)
         for j, col in ((0, _TH1), (1, _TH2)):
-            m[j] = x[i, col] if enc[0] == 0.0 else np.floor(x[i, col] / enc[0]) * enc[0]
-        r = x[i, _R]
-        m[2] = r if enc[1] == 0.0 else np.round((r + enc[2] * np.sin(2.0 * r)) / enc[1]) * enc[1]
+            m[j] = floor_quantize(x[i, col], enc[0])
+        m[2] = absolute_encoder_angle(x[i, _R], enc[1], enc[2])
         for j in range(3):
             vel[i, j] = update_velocity(meas[i, j], m[j], vel[i, j], dt, gain)
             meas[i, j] = m[j]

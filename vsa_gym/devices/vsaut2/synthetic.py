@@ -36,6 +36,7 @@ from vsa_gym.identify.effects import draw_planted_effect
 from vsa_gym.identify.library import main_parameters, signed_effects, synthetic_ranges
 from vsa_gym.identify.record import FORMAT, Record, load_record, write_record
 from vsa_gym.identify.recovery import SyntheticBench
+from vsa_gym.physics.sensors import floor_quantize, round_quantize
 
 EXPERIMENTS: tuple[str, ...] = ("free_oscillation", "constant_current", "torque_sweep")
 
@@ -127,7 +128,7 @@ def make_vsaut2_record(seed: int, experiment: str = "free_oscillation", effect: 
         spec = meta["outputs"][s.column]
         step = float(spec["resolution"])
         yj = y[:, j] - ad.measurement[j].bias + NOISE_COUNTS * step * rng.standard_normal(y.shape[0])
-        table[s.column] = (np.floor(yj / step) if spec["quantizer"] == "floor" else np.round(yj / step)) * step
+        table[s.column] = (floor_quantize if spec["quantizer"] == "floor" else round_quantize)(yj, step)
     if path is not None:
         write_record(path, table, meta)
         rec = load_record(path)
