@@ -72,3 +72,27 @@ def test_stiction_bristle_holds_without_creep_and_slides_beyond_the_breakaway_fo
     assert tanh_law[-1] > 100 * x_c  # the regularised law creeps
     slid = simulate(p.vector(1), np.full(1001, 1.5 * F_c), 1e-3)[:, 0, 1]
     assert slid[-1] == pytest.approx(0.5 * F_c / M * 1.0, rel=1e-2)  # (1.5 F_c - F_c) / m after 1 s
+
+
+@pytest.mark.parametrize("delta", [1.0, 1.5, 2.0])
+def test_stribeck_shape_exponent_sets_the_steady_sliding_speed(delta):
+    """Under a constant force the load settles where F = F_s exp(-|v/v_s|^delta) + b v (Tustin at delta = 1,
+    LuGre's Gaussian at 2); the speed found by simulation is that root."""
+    from scipy.optimize import brentq
+
+    F_s, v_s, b, force = 4.0, 0.05, 20.0, 3.5
+    p = DriveParams(m=M, k_u=1.0, F_s=F_s, v_s=v_s, b=b, v_eps=1e-5, delta_s=delta)
+    x0 = np.zeros(N_STATE)
+    x0[[1, 3]] = 0.3  # start sliding above the root, so that the load slides down onto it
+    v = simulate(p.vector(1), np.full(4001, force), 1e-3, x0=x0)[-1, 0, 1]
+    root = brentq(lambda w: F_s * np.exp(-abs(w / v_s) ** delta) + b * w - force, 0.06, 0.3)
+    assert v == pytest.approx(root, rel=1e-6)
+
+
+def test_default_stribeck_shape_is_the_gaussian_bit_for_bit():
+    p = DriveParams(m=M, k_u=1.0, F_c=1.0, F_s=2.0, v_s=0.05, v_eps=1e-3)
+    u = np.sin(np.linspace(0, 20, 2000)) * 4.0
+    same = simulate(p.vector(1), u, 1e-3)
+    assert np.array_equal(same, simulate(DriveParams(**{**p.__dict__, "delta_s": 2.0}).vector(1), u, 1e-3))
+    other = simulate(DriveParams(**{**p.__dict__, "delta_s": 1.0}).vector(1), u, 1e-3)
+    assert not np.allclose(same, other)

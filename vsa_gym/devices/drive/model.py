@@ -32,16 +32,17 @@ contact mode of :data:`F_CONTACT` = 50 Hz on the reduced mass ``m_r = frac_m (1 
 ``k = (2 pi 50 Hz)^2 m_r``) and ``c = 2 zeta m_r omega`` with :data:`ZETA_CONTACT` = 0.7.
 Load friction (:mod:`vsa_gym.physics.friction` forms)::
 
-    F_f(v) = (F_c + F_s exp(-(v/v_s)^2)) tanh(v / v_eps) + b v
+    F_f(v) = (F_c + F_s exp(-|v/v_s|^delta_s)) tanh(v / v_eps) + b v
 
 is the steady-state LuGre / Stribeck characteristic (``F_s`` is the static excess
-over Coulomb) with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`.
+over Coulomb; ``delta_s`` its shape exponent, 2 for LuGre's Gaussian decay, 1 for Tustin's exponential)
+with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`.
 With a stiction travel ``x_c > 0`` (a sidecar parameter; give it below the encoder's resolution)
 the friction sticks instead of creeping: a reset-integrator bristle ``z`` (Haessig & Friedland
 1991) with ``k_0 = (F_c + F_s) / x_c``::
 
     dz/dt = v  while |z| < x_c or z v < 0,   else 0
-    F_f = clip(k_0 z, -g(v), g(v)) + 2 sqrt(k_0 m_l) dz/dt + b v,   g(v) = F_c + F_s exp(-(v/v_s)^2)
+    F_f = clip(k_0 z, -g(v), g(v)) + 2 sqrt(k_0 m_l) dz/dt + b v,   g(v) = F_c + F_s exp(-|v/v_s|^delta_s)
 
 so the load holds against any force below ``F_c + F_s`` (a critically damped spring of travel
 ``x_c``) and slides with ``g(v)`` beyond.  With ``x_c = 0`` (the default) the tanh law above
@@ -80,7 +81,7 @@ from vsa_gym.physics.steppers import rk4_row_stepper
 
 PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
                            "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b",
-                           "b_emf", "x_c")
+                           "b_emf", "x_c", "delta_s")
 PIDX = {n: i for i, n in enumerate(PNAMES)}
 #: observables of the roll-out, in column order
 OBS: tuple[str, ...] = ("position", "velocity", "motor_position", "force", "controller_output")
@@ -137,6 +138,9 @@ class DriveParams(ParameterSet):
                            "v_eps. Below the sensor's resolution, so that stuck friction holds without creeping")
     eta_b: float = param(0.0, symbol="eta_b", unit="-", source="effect", tag="proposed", lower=0.0, upper=1.0,
                          doc="back-driven transmission efficiency (load drives the motor); 0: the same as eta")
+    delta_s: float = param(2.0, symbol="delta_s", unit="-", source="effect", tag="proposed", lower=0.0,
+                           strict_lower=True, doc="Stribeck shape exponent: exp(-|v/v_s|^delta_s) (2: LuGre's "
+                                                  "Gaussian, 1: Tustin's exponential; Armstrong-Helouvry 1994)")
 
     @classmethod
     def from_motor(cls, motor: DCMotorParams, ratio: float, m_load: float, b_load: float = 0.0,
@@ -208,7 +212,8 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     eta_b = P[17] if P[17] > 0.0 else eta
     mm = frac * m
     ml = (1.0 - frac) * m
-    g_v = F_c + F_s * np.exp(-(vl / v_s) ** 2)
+    d_s = P[20]
+    g_v = F_c + F_s * (np.exp(-(vl / v_s) ** 2) if d_s == 2.0 else np.exp(-abs(vl / v_s) ** d_s))
     x_c = P[19]
     if x_c > 0.0 and F_c + F_s > 0.0:
         # reset-integrator bristle: a stiff spring while stuck (|z| < x_c), the sliding law g(v) beyond
