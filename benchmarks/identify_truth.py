@@ -132,6 +132,10 @@ def score(row: dict[str, Any], result: dict[str, Any] | None) -> dict[str, Any]:
         got = float(row["fitted"][eff].get(MAIN[eff], np.nan))
         want = float(row["truth"][eff])
         row["rel_error"][eff] = abs(got - want) / abs(want) if want else float("inf")
+    # the fitted candidates of every round, to read why an effect was (not) named
+    row["candidates"] = [{k: c.get(k) for k in ("round", "name", "val_score", "share", "accepted", "reason")}
+                         for c in result.get("candidates", []) if c.get("fitted")]
+    row["noise_floor_nrmse"] = result.get("noise_floor_nrmse")
     row["ambiguous"] = [list(a.get("between", [])) for a in result.get("ambiguous", []) or []]
     row["ambiguous_truth"] = any(planted & set(b) for b in row["ambiguous"])
     row["extra"] = sorted(set(row["named"]) - planted)

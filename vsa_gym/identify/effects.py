@@ -26,7 +26,7 @@ CATALOGUE: tuple[str, ...] = PHYSICS_EFFECTS + MEASUREMENT_EFFECTS
 
 DESCRIPTIONS: dict[str, str] = {
     "coulomb_friction": "Coulomb friction",
-    "stribeck_friction": "Stribeck (LuGre steady-state) friction",
+    "stribeck_friction": "Stribeck friction (steady-state static excess)",
     "viscous_friction": "viscous friction",
     "backlash": "backlash",
     "transmission_compliance": "transmission compliance",
@@ -56,6 +56,9 @@ class ParamSpec:
     # (a datasheet inertia is good to a few per cent): a main parameter there is not named as an effect
     check_bound: bool = True  # a fit that leaves it at a bound rejects the effect (False: a shape parameter
     # whose bound is a physical limit, e.g. a lossless back-driven mesh)
+    optional: bool = False  # a shape parameter held at ``absent`` (the model's default shape) unless freeing it
+    # improves the validation error by the estimator's margin (a free shape can trade against the main
+    # parameter where the data hold only their product)
 
     def clip(self, v: float) -> float:
         return float(min(max(v, self.lower), self.upper))

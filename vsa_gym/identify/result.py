@@ -128,8 +128,9 @@ class IdentificationResult:
                 continue
             spec = self.adapter.effects[name]
             params, ci = {}, {}
-            for p in spec.params:
-                v, lo, hi = self.final.param(f"{name}.{p.name}")
+            for p in spec.params:  # an optional shape parameter not freed is held at its default
+                key = f"{name}.{p.name}"
+                v, lo, hi = self.final.param(key) if key in self.final.keys else (p.absent,) * 3
                 params[p.name] = v
                 ci[p.name] = [lo, hi]
             out.append({"name": name, "location": spec.location, "parameters": params, "ci": ci,

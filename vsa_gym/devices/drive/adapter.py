@@ -11,6 +11,7 @@ import numpy as np
 
 from vsa_gym.devices.drive import model as drive
 from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
+from vsa_gym.devices.drive.effects import ZETA_COMPLIANCE
 from vsa_gym.identify.adapters import SENSOR_KEYS, Adapter, Theta, theta_column
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.library import physics_specs
@@ -173,6 +174,8 @@ class DriveAdapter(Adapter):
         P[:, I["F_s"]] += theta_column(theta, "stribeck_friction.F_s", n)
         if "stribeck_friction.v_s" in theta:
             P[:, I["v_s"]] = theta_column(theta, "stribeck_friction.v_s", n)
+        if "stribeck_friction.delta" in theta:
+            P[:, I["delta_s"]] = theta_column(theta, "stribeck_friction.delta", n)
         P[:, I["b"]] += theta_column(theta, "viscous_friction.b", n)
         P[:, I["backlash"]] += theta_column(theta, "backlash.width", n)
         P[:, I["m"]] *= 1.0 + theta_column(theta, "inertia_error.rel", n)
@@ -191,7 +194,14 @@ class DriveAdapter(Adapter):
         P[:, I["k_c"]] *= 1.0 + theta_column(theta, "spring_stiffness_drift.drift", n)
         kc = P[:, I["k_c"]]
         red = P[:, I["m"]] * P[:, I["frac_m"]] * (1 - P[:, I["frac_m"]])
-        P[on, I["c_c"]] = np.maximum(P[on, I["c_c"]], 2 * 0.05 * np.sqrt(kc[on] * red[on]))
+        zeta = theta_column(theta, "transmission_compliance.zeta", n, ZETA_COMPLIANCE)
+        P[on, I["c_c"]] = np.maximum(P[on, I["c_c"]], 2 * zeta[on] * np.sqrt(kc[on] * red[on]))
+        if "backlash.f_contact" in theta or "backlash.zeta_contact" in theta:  # the contact of a rigid drive
+            rigid = P[:, I["k_c"]] == 0.0
+            k_b = (2 * np.pi * theta_column(theta, "backlash.f_contact", n, drive.F_CONTACT)) ** 2 * red
+            z_b = theta_column(theta, "backlash.zeta_contact", n, drive.ZETA_CONTACT)
+            P[rigid, I["k_contact"]] = k_b[rigid]
+            P[rigid, I["c_c"]] = 2 * z_b[rigid] * np.sqrt(k_b[rigid] * red[rigid])
         fh = theta_column(theta, "hysteresis.F_h", n)
         P[:, I["F_h"]] += fh
         x_h = theta_column(theta, "hysteresis.x_h", n, 0.01 * getattr(self, "x_ref", 1.0))
