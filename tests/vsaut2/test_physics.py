@@ -38,6 +38,46 @@ def test_energy_balance(model, kind):
     assert np.all(es[-1, 0, [POWER["copper"], POWER["viscous"], POWER["gearbox"], POWER["stops"]]] >= -1e-12)
 
 
+@pytest.mark.parametrize("kind", range(5))
+def test_energy_balance_with_spring_hysteresis(model, kind):
+    """Spring hysteresis (Dahl, an 11th state column): the balance closes as the nominal one does, with the Dahl
+    element's stored part in ``stored_energy`` and its dissipation in the ``viscous`` channel."""
+    from vsa_gym.devices.vsaut2.params import VsaUT2Effects
+
+    hm = VsaUT2Model(VsaUT2Params(effects=VsaUT2Effects(M_h=0.05, phi_h=0.005)))
+    assert hm.n_states == 11 and hm.n_effect_states == 1
+    u, tau = input_program(kind, 400, seed=7)
+    x0 = hm.initial_state(1, q1=0.015, q2=0.05, r=0.1)
+    xs, es = hm.simulate(x0, u[:, None, :], tau[:, None])
+    diss = es[-1, 0, [POWER["copper"], POWER["viscous"], POWER["gearbox"], POWER["stops"]]].sum()
+    stored = hm.stored_energy(xs[-1])[0] - hm.stored_energy(xs[0])[0]
+    scale = np.abs(es[-1, 0]).sum()
+    assert abs(es[-1, 0, :3].sum() - diss - stored) <= 5e-4 * scale
+    assert np.max(np.abs(xs[:, 0, 10])) <= 0.05 * (1 + 1e-9)  # |h| <= M_h from h = 0
+    assert np.all(es[-1, 0, 3:] >= -1e-12)
+
+
+def test_spring_hysteresis_acts_at_the_lever_port_and_books_its_dissipation_as_friction(model):
+    """One evaluation of the right-hand side: the Dahl torque ``-h`` on the output (``+h`` on the frame), its law
+    ``dh/dt = (M_h phi_dot - |phi_dot| h) / phi_h``, and ``|phi_dot| h^2 / M_h`` added to the viscous channel only."""
+    from vsa_gym.devices.vsaut2.params import VsaUT2Effects
+
+    M_h, phi_h, h = 0.05, 0.01, 0.02
+    p = model.params.replace(effects=VsaUT2Effects(M_h=M_h, phi_h=phi_h))
+    x = model.initial_state(1, q1=0.015, r=0.2)
+    x[0, STATE["r_dot"]], x[0, STATE["q2_dot"]] = 1.5, -0.5
+    xh = np.concatenate([x, [[h]]], axis=1)
+    for compiled in (True, False):
+        dx0, p0 = VsaUT2Model(model.params, compiled=compiled).rhs(x, np.zeros((1, 2)), np.zeros(1))
+        dx1, p1 = VsaUT2Model(p, compiled=compiled).rhs(xh, np.zeros((1, 2)), np.zeros(1))
+        assert dx1[0, STATE["r_dot"]] == pytest.approx(dx0[0, STATE["r_dot"]] - h / model.params.I_o, rel=1e-12)
+        assert dx1[0, STATE["q2_dot"]] == pytest.approx(dx0[0, STATE["q2_dot"]] + h / model.params.I_ad, rel=1e-12)
+        assert dx1[0, 10] == pytest.approx((M_h * 2.0 - 2.0 * h) / phi_h, rel=1e-12)
+        dp = p1[0] - p0[0]
+        assert dp[POWER["viscous"]] == pytest.approx(2.0 * h * h / M_h, rel=1e-12)
+        assert np.all(np.delete(dp, POWER["viscous"]) == 0.0)
+
+
 def test_energy_imbalance_is_integration_error(model):
     """Refining the substeps shrinks the imbalance at RK4's order: the model itself conserves energy."""
     u, tau = input_program(2, 200, seed=7)

@@ -25,8 +25,9 @@ ratio, which includes the belt stretch and backlash), ``phi``, ``i2``.  With
 ``r_sensor = "AS5043"`` the simulated ``r`` carries the encoder's gain-mismatch error
 (its quantisation is left to the data: it has no gradient).
 
-Hysteresis (a Dahl state) is not offered: it needs the numpy Extension path, ~100x too
-slow for fitting.
+Hysteresis (Dahl, ``effects.M_h`` / ``effects.phi_h``) is a state column of the same compiled core
+(``EFFECT_STATE["h_phi"]``): the rollout carries it when some candidate row has ``M_h > 0``.  It is offered on
+records whose deflection is swept by an external torque (the torque-deflection sweep).
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ import numba
 import numpy as np
 
 from vsa_gym.devices.vsaut2.effects import LIBRARY as VSAUT2_LIBRARY
-from vsa_gym.devices.vsaut2.model import N_STATES, STATE, SUBSTEPS_PER_MS, VsaUT2Model, rk4_rows
+from vsa_gym.devices.vsaut2.model import EFFECT_STATE, N_STATES, STATE, SUBSTEPS_PER_MS, VsaUT2Model, rk4_rows
 from vsa_gym.devices.vsaut2.params import AS5043Encoder, VsaUT2Params
 from vsa_gym.identify.adapters import Adapter, Theta, theta_column
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
@@ -83,15 +84,15 @@ def _replace_dotted(p: VsaUT2Params, changes: Mapping[str, float]) -> VsaUT2Para
 def _rollout(x0: np.ndarray, u: np.ndarray, tau: np.ndarray, mode: int, P: np.ndarray, D: np.ndarray,
              dt: float, n_sub: int, R2: float, ke2: float, L2: float, wc: float, kp: float, kd: float,
              th2_0: np.ndarray) -> np.ndarray:
-    """States ``(T, n, N_STATES)`` at the sample times; inputs held over each sample interval.
+    """States ``(T, n, n_x)`` at the sample times; inputs held over each sample interval.
 
-    ``u`` ``(T, 2)``: pivot voltage and the frame command (voltage, current reference, or
-    unused in hold mode); ``tau`` ``(T, n)``.  Modes 1 (current) and 2 (hold) update the
-    frame voltage at every substep.
+    ``x0`` ``(n, n_x)``: the 10 core states, or 11 with the hysteresis state.  ``u`` ``(T, 2)``: pivot voltage
+    and the frame command (voltage, current reference, or unused in hold mode); ``tau`` ``(T, n)``.  Modes 1
+    (current) and 2 (hold) update the frame voltage at every substep.
     """
     T = u.shape[0]
     n = x0.shape[0]
-    xs = np.empty((T, n, N_STATES))
+    xs = np.empty((T, n, x0.shape[1]))
     x = x0.copy()
     xs[0] = x
     uk = np.empty((n, 2))
@@ -163,6 +164,8 @@ class Vsaut2Adapter(Adapter):
         self.r_sensor = AS5043Encoder() if str(model.get("r_sensor", "")).upper() == "AS5043" else None
         self.frame_actuated = self.mode in (1,) or bool(np.any(self.u[:, 1] != 0.0))
         self.joint = "frame" if self.frame_actuated else "output"
+        #: an external torque sweeps the deflection (the torque-deflection sweep): where hysteresis is offered
+        self.torque_driven = not self.frame_actuated and bool(np.any(self.tau != 0.0))
         self.n_sub = max(1, int(round(self.dt / 1e-3 * SUBSTEPS_PER_MS)))
         self._scales()
         self.effects = self._effects()
@@ -207,6 +210,10 @@ class Vsaut2Adapter(Adapter):
         if "gearbox_efficiency.loss" in theta:
             out["frame_gearbox.eta_max"] = cur("frame_gearbox.eta_max") * (1.0 - theta_column(theta,
                                                                                       "gearbox_efficiency.loss", n))
+        if "hysteresis.M_h" in theta:
+            out["effects.M_h"] = cur("effects.M_h") + theta_column(theta, "hysteresis.M_h", n)
+            if "hysteresis.phi_h" in theta:
+                out["effects.phi_h"] = theta_column(theta, "hysteresis.phi_h", n).copy()
         return out
 
     def identified_params(self, theta: Mapping[str, float]) -> VsaUT2Params:
@@ -227,10 +234,13 @@ class Vsaut2Adapter(Adapter):
             P[:, self.col[name]] = v
         model = VsaUT2Model(self.params)
         x0 = model.initial_state(n, q1=self.q1_0, q2=self.q2_0, r=self.r_0)
+        # the hysteresis state column (starting at 0) when some row has it on
+        x0 = np.concatenate([x0[:, :N_STATES], np.zeros((n, len(EFFECT_STATE)))], axis=1) \
+            if np.any(P[:, self.col["effects.M_h"]] > 0.0) else x0[:, :N_STATES]
         D = model.d_rows
         tau = self.tau[:, None] + theta_column(theta, "force_offset.F_0", n)[None, :]
         m = self.params.frame_motor
-        return _rollout(np.ascontiguousarray(x0[:, :N_STATES]), np.ascontiguousarray(self.u),
+        return _rollout(np.ascontiguousarray(x0), np.ascontiguousarray(self.u),
                         np.ascontiguousarray(tau), self.mode, np.ascontiguousarray(P), D, float(self.dt),
                         int(self.n_sub), float(m.R), float(m.k_e), float(m.L), 2.0 * np.pi * 1000.0, self.kp,
                         self.kd, np.ascontiguousarray(x0[:, STATE["th2"]]))

@@ -3,7 +3,7 @@
 peak torque of the joint that moves, ``v_ref``: its peak speed, ``x_ref``: its angle spread, of the nominal
 replay), and the magnitudes the synthetic records of the paper's experiments plant
 (:mod:`vsa_gym.devices.vsaut2.synthetic`).  The equations are the core's (``VsaUT2Params.effects``, the lever,
-belt and gearbox laws), the mapping ``Vsaut2Adapter.changes``.
+belt and gearbox laws; the spring hysteresis is a state column of the core), the mapping ``Vsaut2Adapter.changes``.
 """
 
 from __future__ import annotations
@@ -61,6 +61,20 @@ LIBRARY: tuple[Effect, ...] = (
     Effect("force_offset", "on the output (constant torque)", (
         Param("F_0", "N m", lambda a: -0.3 * a.T_ref, lambda a: 0.3 * a.T_ref, 0.0, lambda a: 0.02 * a.T_ref),),
            enters="a constant torque F_0 added to the external torque on the output", signed=True),
+    # a stateful effect: its state is the core's extra column EFFECT_STATE["h_phi"] (the equation is in
+    # equations.rhs_point).  Offered where an external torque sweeps the deflection through its loop (the torque
+    # sweep: Table IV's torque hysteresis is measured so); a presliding deflection of a few AS5043 counts or less is
+    # not resolved, and the loop then looks like Coulomb friction at the output
+    Effect("hysteresis", "in the lever springs (a Dahl torque along the deflection phi)", (
+        Param("M_h", "N m", 0.0, lambda a: 0.5 * a.T_ref, 0.0, lambda a: 0.03 * a.T_ref),
+        Param("phi_h", "rad", 3e-3, lambda a: max(0.3 * a.x_ref, 0.06), 0.02, 0.02, main=False)),
+           enters="a torque -h on the output along phi (+h on the frame), dh/dt = (M_h phi_dot - |phi_dot| h) / phi_h "
+                  "(effects.M_h, effects.phi_h; Dahl's sigma_h = M_h / phi_h)",
+           when=lambda a: a.torque_driven,
+           synthetic={SWEEP: {"M_h": (0.01, 0.03), "phi_h": (0.02, 0.05)}},
+           source="Table IV row 11 (maximum torque hysteresis 12 %: a loop of half-height about 6 % of the swept "
+                  "torque, 0.024 N m at the sweep's 0.4 N m; the range is 5-15 %); the presliding deflection is "
+                  "assumed (3-8 AS5043 counts: the paper gives none)"),
     Effect("sensor_gain", measurement=True, synthetic={SWEEP: {"gain": (0.04, 0.1)}}, signed=True,
            source="the AS5043's look-alike of the spring drift in the linear range"),
     Effect("sensor_offset", measurement=True, synthetic={FREE: {"offset": (0.01, 0.03)}}, signed=True,

@@ -148,7 +148,7 @@ class PositionStiffnessTask(VsaUT2Task):
             p = self.row_params[int(i)]
             q1 = float(rng.uniform(0.1, 0.9)) * float(p.q1_max)
             q2 = float(rng.uniform(-0.5, 0.5)) * float(p.q2_max)
-            self.s["x"][i] = self._row_model(int(i)).initial_state(1, q1=q1, q2=q2)[0]
+            self._set_initial_state(int(i), self._row_model(int(i)).initial_state(1, q1=q1, q2=q2)[0])
         for sig in (self.ref_r, self.ref_k, self.dist):
             sig.reset(self.s, rows, self.rngs)
         zero = np.zeros(len(rows))

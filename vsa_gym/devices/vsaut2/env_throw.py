@@ -93,7 +93,8 @@ class ThrowTask(VsaUT2Task):
         self._reset_common(rows)
         for i in rows:
             p = self.row_params[int(i)]
-            self.s["x"][i] = self._row_model(int(i)).initial_state(1, q1=self.q1_frac * float(p.q1_max))[0]
+            x0 = self._row_model(int(i)).initial_state(1, q1=self.q1_frac * float(p.q1_max))[0]
+            self._set_initial_state(int(i), x0)
             self.s["phi"][i] = shaping_potential(self.s["x"][i, _R], self.s["x"][i, _R_DOT], self._weights)
         self._reset_sensors(rows)
 

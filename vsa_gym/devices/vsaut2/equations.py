@@ -17,7 +17,7 @@ from vsa_gym.devices.vsaut2.pivot import pivot_jacobian, pivot_position
 from vsa_gym.physics.contact import two_sided_stop
 from vsa_gym.physics.dc_motor import applied_voltage, current_derivative, shaft_torque
 from vsa_gym.physics.gearbox import input_torque
-from vsa_gym.physics.kernels import scalar_shortcut
+from vsa_gym.physics.kernels import scalar_shortcut, select
 
 
 def dead_zone_energy(x: np.ndarray, eps: float | np.ndarray) -> np.ndarray:
@@ -28,16 +28,17 @@ def dead_zone_energy(x: np.ndarray, eps: float | np.ndarray) -> np.ndarray:
 @register_jitable
 def rhs_point(
     p: VsaUT2Params, d: Derived, i1: Any, th1: Any, w1: Any, i2: Any, th2: Any, w2: Any, q2: Any, q2d: Any,
-    r: Any, rd: Any, u_1: Any, u_2: Any, tau_ext: Any, pt0: Any, pt1: Any, pt2: Any, pt3: Any, pt4: Any,
+    r: Any, rd: Any, hz: Any, u_1: Any, u_2: Any, tau_ext: Any, pt0: Any, pt1: Any, pt2: Any, pt3: Any, pt4: Any,
     pt5: Any, pt6: Any,
 ) -> tuple[tuple[Any, ...], tuple[Any, ...]]:
     """The vsaUT-II equations of motion (module docstring), written once, element-wise.
 
     Every state, input and port argument is either an ``(n,)`` column (numpy path, ``p`` a
     :class:`VsaUT2Params`) or a float (compiled per-row path, ``p`` one row of the parameter
-    tuple, see :func:`vsa_gym.physics.kernels.row_of`).  ``pt0..pt6`` are the additive
-    extension forces in :data:`PORTS` order.  Returns the 10 state derivatives and the 7
-    power channels.
+    tuple, see :func:`vsa_gym.physics.kernels.row_of`).  ``hz`` is the spring hysteresis state
+    (``EFFECT_STATE["h_phi"]``; ``0.0`` where the layout has no such column).  ``pt0..pt6`` are the
+    additive extension forces in :data:`PORTS` order.  Returns the 10 state derivatives plus ``dhz/dt``
+    (11 entries) and the 7 power channels.
     """
     m1, m2, g1, g2 = p.pivot_motor, p.frame_motor, p.pivot_gearbox, p.frame_gearbox
 
@@ -62,11 +63,23 @@ def rhs_point(
     else:
         tau_fo = (e.F_c_o + e.F_s_o * np.exp(-((rd / e.w_s_o) ** 2))) * np.tanh(rd / e.w_eps)
     tau_fad = 0.0 * q2d if scalar_shortcut(e.F_c_ad == 0.0) else e.F_c_ad * np.tanh(q2d / e.w_eps)
+    # spring hysteresis (Dahl) along phi: torque -hz on the output, dhz/dt = (M_h phi_dot - |phi_dot| hz) / phi_h;
+    # stores hz^2 phi_h / (2 M_h), dissipates |phi_dot| hz^2 / M_h.  M_h = 0: absent (whatever hz), and the terms
+    # below are exactly 0.0 (tau_phi - 0.0 and viscous + 0.0 keep their bits)
+    phi_dot = rd - q2d
+    if scalar_shortcut(e.M_h == 0.0):
+        tau_h, dhz, p_h = 0.0, 0.0, 0.0
+    else:
+        on = e.M_h > 0.0
+        a_h = np.abs(phi_dot) * hz
+        tau_h = select(on, hz, 0.0)
+        dhz = select(on, (e.M_h * phi_dot - a_h) / e.phi_h, 0.0)
+        p_h = select(on, a_h * hz / select(on, e.M_h, 1.0), 0.0)
 
     # elastic elements (+ extension ports)
-    lev = lever_forces(p.lever, q1, r - q2, q1_dot, rd - q2d)
+    lev = lever_forces(p.lever, q1, r - q2, q1_dot, phi_dot)
     F_b = belt_force(p.belt, delta_bl) + pt0
-    tau_phi = lev.tau_phi + pt1
+    tau_phi = lev.tau_phi + pt1 - tau_h
     F_q1 = lev.F_q1 + pt2
 
     # motors: amplifier limits, circuits
@@ -92,13 +105,14 @@ def rhs_point(
         (p.belt.r_op * F_b - tau_phi - p.c_ad * q2d - tau_fad + stop2.force + pt5) / p.I_ad,
         rd,
         (tau_phi - p.c_o * rd - tau_fo + tau_ext + pt6) / p.I_o,
+        dhz,
     )
     pw = (
         u1 * i1,
         u2 * i2,
         tau_ext * rd,
         m1.R * i1**2 + m2.R * i2**2,
-        m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2 + tau_fad * q2d + tau_fo * rd,
+        m1.b * w1**2 + m2.b * w2**2 + p.c_ad * q2d**2 + p.c_o * rd**2 + tau_fad * q2d + tau_fo * rd + p_h,
         p_gb1 + p_gb2,
         lev.p_diss + stop1.p_diss + stop2.p_diss,
     )
@@ -107,16 +121,18 @@ def rhs_point(
 
 def rhs_core(
     x: np.ndarray, u: np.ndarray, tau_ext: np.ndarray, p: VsaUT2Params, d: Derived, ports: np.ndarray,
-    dx: np.ndarray, pw: np.ndarray,
+    dx: np.ndarray, pw: np.ndarray, n_effect: int = 0,
 ) -> None:
-    """:func:`rhs_point` on columns (numpy path). ``x``: ``(n, >= 10)``; ``ports``: ``(n, 7)``.
+    """:func:`rhs_point` on columns (numpy path). ``x``: ``(n, >= 10 + n_effect)``; ``ports``: ``(n, 7)``;
+    ``n_effect``: the effect-state columns after the 10 core states (0, or 1: the hysteresis state).
 
-    Fills ``dx`` (first 10 columns) and ``pw`` ``(n, 7)`` in place.
+    Fills ``dx`` (first ``10 + n_effect`` columns) and ``pw`` ``(n, 7)`` in place.
     """
+    hz = x[:, N_STATES] if n_effect else 0.0 * x[:, 0]
     dxs, pws = rhs_point(p, d, x[:, 0], x[:, 1], x[:, 2], x[:, 3], x[:, 4], x[:, 5], x[:, 6], x[:, 7], x[:, 8],
-                          x[:, 9], u[:, 0], u[:, 1], tau_ext, ports[:, 0], ports[:, 1], ports[:, 2], ports[:, 3],
-                          ports[:, 4], ports[:, 5], ports[:, 6])
-    for k in range(N_STATES):
+                          x[:, 9], hz, u[:, 0], u[:, 1], tau_ext, ports[:, 0], ports[:, 1], ports[:, 2],
+                          ports[:, 3], ports[:, 4], ports[:, 5], ports[:, 6])
+    for k in range(N_STATES + n_effect):
         dx[:, k] = dxs[k]
     for k in range(N_POWER):
         pw[:, k] = pws[k]
@@ -125,11 +141,18 @@ def rhs_core(
 @register_jitable(inline="always")  # inlined into the RK4/ETD stage loops: ~10 % per RHS, same bits
 def rhs_row(p: Any, d: Any, y: np.ndarray, u_1: float, u_2: float, tau: float, dx: np.ndarray,
              pw: np.ndarray) -> None:
-    """:func:`rhs_point` on one row (floats), no extensions; fills the row vectors ``dx`` and ``pw``."""
-    dxs, pws = rhs_point(p, d, y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], y[8], y[9], u_1, u_2, tau,
+    """:func:`rhs_point` on one row (floats), no extensions; fills the row vectors ``dx`` and ``pw``.
+
+    A row of 11 entries carries the hysteresis state (``EFFECT_STATE["h_phi"]``); one of 10 is the nominal
+    layout (the state ``hz`` is then ``0.0``, and with ``M_h = 0`` the effect is skipped).
+    """
+    has_h = y.shape[0] > N_STATES
+    hz = y[N_STATES] if has_h else 0.0
+    dxs, pws = rhs_point(p, d, y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], y[8], y[9], hz, u_1, u_2, tau,
                           0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     for k in range(N_STATES):
         dx[k] = dxs[k]
+    if has_h:
+        dx[N_STATES] = dxs[N_STATES]
     for k in range(N_POWER):
         pw[k] = pws[k]
-

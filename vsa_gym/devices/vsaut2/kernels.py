@@ -12,7 +12,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from vsa_gym.devices.vsaut2.equations import rhs_row
-from vsa_gym.devices.vsaut2.layout import ETD_STIFF, N_POWER, N_STATES, Derived
+from vsa_gym.devices.vsaut2.layout import ETD_STIFF, N_POWER, Derived
 from vsa_gym.devices.vsaut2.params import VsaUT2Params
 from vsa_gym.physics.integrate import etdrk4_weights
 from vsa_gym.physics.kernels import row_reader
@@ -20,8 +20,8 @@ from vsa_gym.physics.steppers import etd_row_stepper, rk4_row_stepper
 
 
 def _rhs_rows_py(x: np.ndarray, u: np.ndarray, tau: np.ndarray, P: Any, D: Any) -> tuple[np.ndarray, np.ndarray]:
-    n = x.shape[0]
-    dx = np.empty((n, N_STATES))
+    n, nx = x.shape  # nx: 10 core states, or 11 with the hysteresis state (EFFECT_STATE)
+    dx = np.empty((n, nx))
     pw = np.empty((n, N_POWER))
     for i in numba.prange(n):
         rhs_row(P_ROW(P, i), D_ROW(D, i), x[i], u[i, 0], u[i, 1], tau[i], dx[i], pw[i])
@@ -46,16 +46,17 @@ def _rk4_rows_py(
     """:func:`vsa_gym.physics.integrate.rk4` over :func:`rhs_row`, row by row with floats (no extensions): the
     generic :func:`~vsa_gym.physics.steppers.rk4_row_stepper` over :func:`point_rhs`.
 
-    The arithmetic of each element is that of the numpy ``rk4`` (same operations, same order).
+    ``x`` has the 10 core states, or 11 with the hysteresis state (``EFFECT_STATE``).  The arithmetic of each
+    element is that of the numpy ``rk4`` (same operations, same order).
     """
-    n = x.shape[0]
+    n, nx = x.shape
     h = dt / n_sub
-    x_new = np.empty((n, N_STATES))
+    x_new = np.empty((n, nx))
     energy = np.zeros((n, N_POWER))
     for i in numba.prange(n):
         y = x[i].copy()
-        yt = np.empty(N_STATES)
-        k = np.empty((4, N_STATES))
+        yt = np.empty(nx)
+        k = np.empty((4, nx))
         q = np.empty((4, N_POWER))
         e = np.zeros(N_POWER)
         rk4_row((P_ROW(P, i), D_ROW(D, i), u[i, 0], u[i, 1], tau[i]), y, h, n_sub, k, q, yt, e)
@@ -72,11 +73,11 @@ def _etd_rows_py(
 
     Stiff columns :data:`ETD_STIFF` (the currents) with the constant rates ``R/L`` of the row's
     motors; the weights are those of the numpy step (``etdrk4_weights``), the stages the same
-    operations in the same order, so the two paths agree to round-off.
+    operations in the same order, so the two paths agree to round-off.  Widths of ``x`` as :func:`_rk4_rows_py`.
     """
-    n = x.shape[0]
+    n, nx = x.shape
     h = dt / n_sub
-    x_new = np.empty((n, N_STATES))
+    x_new = np.empty((n, nx))
     energy = np.zeros((n, N_POWER))
     # rates and weights of row 0; every row's when the parameters are shared (not batched): computed once
     p0 = P_ROW(P, 0)
@@ -92,10 +93,10 @@ def _etd_rows_py(
             lam = np.array([p.pivot_motor.R / p.pivot_motor.L, p.frame_motor.R / p.frame_motor.L])
             w = etdrk4_weights(lam, h)  # constant over the step
         y = x[i].copy()
-        ya = np.empty(N_STATES)
-        yb = np.empty(N_STATES)
-        yc = np.empty(N_STATES)
-        k = np.empty((4, N_STATES))
+        ya = np.empty(nx)
+        yb = np.empty(nx)
+        yc = np.empty(nx)
+        k = np.empty((4, nx))
         q = np.empty((4, N_POWER))
         nl = np.empty((4, 2))
         e = np.zeros(N_POWER)

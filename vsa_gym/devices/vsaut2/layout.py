@@ -14,6 +14,13 @@ if TYPE_CHECKING:
 STATE = {name: i for i, name in enumerate(("i1", "th1", "w1", "i2", "th2", "w2", "q2", "q2_dot", "r", "r_dot"))}
 N_STATES = len(STATE)
 STATE_UNITS = ("A", "rad", "rad/s", "A", "rad", "rad/s", "rad", "rad/s", "rad", "rad/s")
+#: States of the stateful effects of ``params.effects`` (:class:`~vsa_gym.devices.vsaut2.params.VsaUT2Effects`): the
+#: spring hysteresis torque ``h_phi`` (N m, Dahl).  Its column follows the 10 core states when the parameters switch
+#: it on (:func:`effect_state_columns`), before any extension's states; absent otherwise (the nominal layout).
+EFFECT_STATE = {"h_phi": N_STATES}
+EFFECT_STATE_UNITS = ("N m",)
+#: The parameters (dotted paths) whose nonzero value switches a stateful effect, and with it its column, on.
+EFFECT_STATE_SWITCHES = ("effects.M_h",)
 POWER = {name: i for i, name in enumerate(
     ("el_pivot", "el_frame", "ext", "copper", "viscous", "gearbox", "stops"))}
 N_POWER = len(POWER)
@@ -37,6 +44,12 @@ ETD_SUBSTEPS_PER_MS = 7
 INTEGRATORS = ("rk4", "etd")
 #: State columns whose linear decay the ``"etd"`` integrator treats exactly (the motor currents).
 ETD_STIFF = (0, 3)
+
+
+def effect_state_columns(params: VsaUT2Params) -> int:
+    """Number of effect-state columns (0 or 1) for ``params`` (shared or batched): 1 when some row has spring
+    hysteresis (``effects.M_h > 0``)."""
+    return int(bool(np.any(np.asarray(params.effects.M_h) > 0.0)))
 
 
 class Derived(NamedTuple):

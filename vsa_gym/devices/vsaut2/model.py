@@ -29,29 +29,33 @@ State layout (``x`` has shape ``(n, 10)``; indices in :data:`STATE`)::
     0 i1 [A]  1 th1 [rad]  2 w1 [rad/s]  3 i2 [A]  4 th2 [rad]  5 w2 [rad/s]
     6 q2 [rad]  7 q2_dot [rad/s]  8 r [rad]  9 r_dot [rad/s]
 
-plus ``sum(ext.n_states)`` trailing columns for extension states.  The belt stretch
+then the effect states of ``params.effects`` that are switched on (:data:`EFFECT_STATE`: column 10 is the
+spring hysteresis torque ``h_phi`` [N m] when some row has ``effects.M_h > 0``; absent otherwise, the nominal
+10-column layout), then ``sum(ext.n_states)`` trailing columns for extension states.  The belt stretch
 is ``r_ip th2 / n2 - r_op q2``.
 
 Inputs: ``u`` of shape ``(n, 2)`` (pivot and frame motor voltages, V) and ``tau_ext``
 of shape ``(n,)`` (external torque on the output, N m).
 
 Power channels (:data:`POWER`, shape ``(n, 7)``): electrical power of each motor,
-external power on the output, and dissipation in copper, viscous friction,
-gearboxes and stops.  Integrated with the state, they satisfy
-``E_el1 + E_el2 + W_ext - D = Delta stored_energy`` to integrator accuracy.
+external power on the output, and dissipation in copper, viscous friction (with the identified friction
+effects and the spring hysteresis), gearboxes and stops (with the extensions' dissipation).  Integrated with
+the state, they satisfy ``E_el1 + E_el2 + W_ext - D = Delta stored_energy`` to integrator accuracy.
 
 Extensions
 ----------
 An :class:`Extension` adds forces at named ports without copying the model:
 ``"belt_force"`` (N), ``"lever_torque"`` (N m, along phi), ``"pivot_force"`` (N, along q1),
 and the joint torques ``"motor1"``, ``"motor2"``, ``"frame"``, ``"output"`` (N m).  It may
-carry its own states.  Spring hysteresis (Dahl) fits this shape.
+carry its own states.  Extensions run on the numpy path only: one 1 ms step of 8 rows took 9.6 ms of CPU with a
+Dahl extension against 74 us for the compiled core with the same law as a state column
+(``python -m benchmarks.vsaut2_hysteresis_speed``).
 
-Identified effects that are cheap and stateless -- Coulomb/Stribeck friction at the
-output and frame joints, backlash in the belt -- are parameters instead
-(``params.effects``, :class:`~vsa_gym.devices.vsaut2.params.VsaUT2Effects`), so they run in the
-compiled core and ``gym.make(..., params=...)`` takes them; all zero (the default)
-is the nominal model exactly.  Their friction power is in the ``viscous`` channel.
+Identified effects -- Coulomb/Stribeck friction at the output and frame joints, backlash in the belt, and the
+stateful spring hysteresis (Dahl, one state column) -- are parameters instead (``params.effects``,
+:class:`~vsa_gym.devices.vsaut2.params.VsaUT2Effects`), so they run in the compiled core and
+``gym.make(..., params=...)`` takes them; all zero (the default) is the nominal model exactly.  Their friction
+power is in the ``viscous`` channel; the hysteresis' stored part is in :meth:`VsaUT2Model.stored_energy`.
 """
 
 from __future__ import annotations
@@ -75,6 +79,9 @@ from vsa_gym.devices.vsaut2.kernels import (  # noqa: F401  (re-exported: the en
     rk4_rows_parallel,
 )
 from vsa_gym.devices.vsaut2.layout import (  # noqa: F401  (re-exported: part of this module's public names)
+    EFFECT_STATE,
+    EFFECT_STATE_SWITCHES,
+    EFFECT_STATE_UNITS,
     ETD_STIFF,
     ETD_SUBSTEPS_PER_MS,
     INTEGRATORS,
@@ -91,6 +98,7 @@ from vsa_gym.devices.vsaut2.layout import (  # noqa: F401  (re-exported: part of
     Extension,
     ExtensionOutput,
     Kinematics,
+    effect_state_columns,
 )
 from vsa_gym.devices.vsaut2.layout import Derived as _Derived
 from vsa_gym.devices.vsaut2.lever import lever_forces, spring_stiffness
@@ -149,13 +157,19 @@ class VsaUT2Model:
         )
         object.__setattr__(self, "_d", derived)
         object.__setattr__(self, "_bs", p.batch_size)  # the property walks every field: once, not per step
+        object.__setattr__(self, "_n_eff", effect_state_columns(p))  # effect-state columns (hysteresis: 0 or 1)
         # compiled path: every leaf an (m,) float64 array (m = 1 or n), one numba signature batched or not
         object.__setattr__(self, "p_rows", flatten_rows(p.as_tuple()))
         object.__setattr__(self, "d_rows", flatten_rows(derived))
 
     @property
+    def n_effect_states(self) -> int:
+        """Effect-state columns after the 10 core states (:data:`EFFECT_STATE`): 1 with spring hysteresis, else 0."""
+        return self._n_eff
+
+    @property
     def n_states(self) -> int:
-        return N_STATES + sum(e.n_states for e in self.extensions)
+        return N_STATES + self._n_eff + sum(e.n_states for e in self.extensions)
 
     # ------------------------------------------------------------------ states
     def initial_state(
@@ -177,7 +191,7 @@ class VsaUT2Model:
         x[:, STATE["q2"]] = q2
         x[:, STATE["th2"]] = np.asarray(q2) * p.frame_ratio
         x[:, STATE["r"]] = q2 if r is None else r
-        col = N_STATES
+        col = N_STATES + self._n_eff  # the hysteresis state starts at 0 (no presliding deflection)
         for ext in self.extensions:
             x[:, col:col + ext.n_states] = ext.initial_state(n)
             col += ext.n_states
@@ -220,7 +234,7 @@ class VsaUT2Model:
         dz_parts = []
         if self.extensions:
             kin = self.kinematics(x)
-            col = N_STATES
+            col = N_STATES + self._n_eff
             for ext in self.extensions:
                 out = ext.evaluate(self.params, kin, x[:, col:col + ext.n_states])
                 col += ext.n_states
@@ -232,10 +246,10 @@ class VsaUT2Model:
                 p_ext_diss += out.p_diss
         dx = np.empty_like(x)
         pw = np.empty((x.shape[0], N_POWER))
-        rhs_core(x, u, tau_ext, self.params, self._d, ports, dx, pw)
+        rhs_core(x, u, tau_ext, self.params, self._d, ports, dx, pw, self._n_eff)
         pw[:, 6] += p_ext_diss
         if dz_parts:
-            dx[:, N_STATES:] = np.concatenate(dz_parts, axis=-1)
+            dx[:, N_STATES + self._n_eff:] = np.concatenate(dz_parts, axis=-1)
         return (dx[0], pw[0]) if flat else (dx, pw)
 
     def step(
@@ -323,7 +337,8 @@ class VsaUT2Model:
 
     # ------------------------------------------------------------------ observables
     def stored_energy(self, x: np.ndarray) -> np.ndarray:
-        """Magnetic + kinetic + elastic energy (J), shape ``(n,)``."""
+        """Magnetic + kinetic + elastic energy (J), shape ``(n,)``; with spring hysteresis, the Dahl element's
+        ``h^2 phi_h / (2 M_h)`` too."""
         p = self.params
         m1, m2 = p.pivot_motor, p.frame_motor
         kin = self.kinematics(x)
@@ -338,7 +353,10 @@ class VsaUT2Model:
         e = e + two_sided_stop(x[..., 1], zero, -STOP_MARGIN_MOTOR, d.th1_max + STOP_MARGIN_MOTOR, p.K_s1, p.D_s1,
                                STOP_EPS_MOTOR).energy
         e = e + two_sided_stop(x[..., 6], zero, -p.q2_max, p.q2_max, p.K_q2, p.D_q2, STOP_EPS_FRAME).energy
-        col = N_STATES
+        if self._n_eff:
+            M_h, h = p.effects.M_h, x[..., EFFECT_STATE["h_phi"]]
+            e = e + np.where(M_h > 0.0, 0.5 * h * h * p.effects.phi_h / np.where(M_h > 0.0, M_h, 1.0), 0.0)
+        col = N_STATES + self._n_eff
         for ext in self.extensions:
             e = e + ext.stored_energy(p, kin, x[..., col:col + ext.n_states])
             col += ext.n_states

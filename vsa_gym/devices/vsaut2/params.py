@@ -83,8 +83,16 @@ class VsaUT2Effects(ParameterSet):
     dead zone of half-width ``b_belt`` on the belt stretch.  Effects that are plain
     parameter errors need no field here: inertia (``I_o``, ``I_ad``), viscous friction
     (``c_o``, ``c_ad``), spring stiffness (``lever.k``), belt compliance
-    (``belt.C_belt``), gearbox efficiency (``frame_gearbox.eta_max``).  Spring
-    hysteresis stays an :class:`~vsa_gym.devices.vsaut2.model.Extension` (it carries a state).
+    (``belt.C_belt``), gearbox efficiency (``frame_gearbox.eta_max``).
+
+    Spring hysteresis (Dahl) is a stateful effect: a torque ``-h`` along the deflection ``phi`` (on the
+    output, ``+h`` on the frame) with ``dh/dt = (M_h phi_dot - |phi_dot| h) / phi_h``, i.e. Dahl's law
+    ``sigma_h (phi_dot - |phi_dot| h / M_h)`` with ``sigma_h = M_h / phi_h``: a loop of half-height ``M_h``
+    whose branches saturate over the presliding deflection ``phi_h``.  Its state ``h`` is an extra state
+    column (``"h_phi"``, :data:`~vsa_gym.devices.vsaut2.layout.EFFECT_STATE`) of the compiled core, present
+    when ``M_h > 0`` in some row; with ``M_h = 0`` (the default) there is no such column and the model is the
+    nominal one bit for bit.  It stores ``h^2 phi_h / (2 M_h)`` and dissipates ``|phi_dot| h^2 / M_h >= 0``
+    (booked in the ``viscous`` power channel with the other friction effects).
     """
 
     F_c_o: float = param(0.0, symbol="F_c,o", unit="N m", source="identification effect", tag="proposed",
@@ -101,6 +109,15 @@ class VsaUT2Effects(ParameterSet):
                          lower=0.0, strict_lower=True, doc="speed scale of the smooth Coulomb friction")
     b_eps: float = param(2e-6, symbol="b_eps", unit="m", source="smoothing of the dead zone", tag="numerics",
                          lower=0.0, strict_lower=True, doc="corner width of the smooth backlash dead zone")
+    M_h: float = param(0.0, symbol="M_h", unit="N m", source="identification effect; Table IV row 11 (12 % torque "
+                       "hysteresis) suggests M_h ~ 0.06 x the swept torque", tag="proposed", lower=0.0,
+                       doc="spring hysteresis (Dahl) along the deflection: loop half-height (0: absent, no state "
+                           "column)")
+    phi_h: float = param(0.02, symbol="phi_h", unit="rad",
+                         source="assumed presliding deflection (the paper gives none): about 3 AS5043 counts",
+                         tag="proposed", lower=0.0, strict_lower=True,
+                         doc="spring hysteresis (Dahl): presliding deflection M_h / sigma_h over which a branch "
+                             "saturates (its pole |phi_dot| / phi_h must stay below 2.7 / h for RK4)")
 
 
 @dataclasses.dataclass(frozen=True)

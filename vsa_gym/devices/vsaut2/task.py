@@ -56,9 +56,12 @@ from numba.extending import register_jitable
 from vsa_gym.devices.vsaut2.belt import belt_stiffness_at_frame
 from vsa_gym.devices.vsaut2.lever import lever_ratio
 from vsa_gym.devices.vsaut2.model import (
+    EFFECT_STATE,
+    EFFECT_STATE_SWITCHES,
     ETD_SUBSTEPS_PER_MS,
     INTEGRATORS,
     N_POWER,
+    N_STATES,
     P_ROW,
     PARALLEL_MIN_ROWS,
     POWER,
@@ -187,7 +190,12 @@ class VsaUT2Task(CompiledStepTask):
         else:
             self.n_inner = 1
         n_ = self.n
-        self.s["x"] = np.zeros((n_, self.model.n_states))
+        # the core's state: 10 columns, plus the effect states (spring hysteresis) when the parameters, or the
+        # domain randomisation of one of their switches, can turn them on (rows with the effect off keep h = 0)
+        width = self.model.n_states
+        if self.randomization is not None and any(k in EFFECT_STATE_SWITCHES for k in self.randomization.ranges):
+            width = max(width, N_STATES + len(EFFECT_STATE))
+        self.s["x"] = np.zeros((n_, width))
         # the drive's per-row bookkeeping in one array (the compiled step takes it as one argument); the named
         # entries are views of its columns, so they must be written in place, never rebound
         drv = np.zeros((n_, N_DRIVE))
@@ -267,6 +275,13 @@ class VsaUT2Task(CompiledStepTask):
         if hit is None or hit[0] is not p:
             hit = memo[i] = (p, VsaUT2Model(p))
         return hit[1]
+
+    def _set_initial_state(self, i: int, x_row: np.ndarray) -> None:
+        """Row ``i``'s state from its row model's initial state; effect states it lacks (its parameters have the
+        effect off while another row's have it on) are zero."""
+        m = x_row.shape[0]
+        self.s["x"][i, :m] = x_row
+        self.s["x"][i, m:] = 0.0
 
     def _col(self, value: Any) -> np.ndarray:
         """A parameter (float or ``(n,)``) as an ``(n,)`` array."""
