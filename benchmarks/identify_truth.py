@@ -2,7 +2,7 @@
 
     python -m benchmarks.identify_truth [--draws 4] [--pairs 8] [--controls 10] [--seed 20250]
                                         [--jobs N] [--only EFFECT] [--out out/identify_truth]
-                                        [--quick] [--subprocess]
+                                        [--quick] [--subprocess] [--redo CASE_SEED ...]
 
 Case set (every case drawn from its own seed, ``seed * 1000 + index``): each single effect of
 :data:`tests.truthsim.scenarios.EFFECTS` x ``--draws`` (this holds every member of the look-alike
@@ -265,26 +265,38 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="out/identify_truth", help="folder for results.json and results.md")
     ap.add_argument("--quick", action="store_true", help="a handful of cases (smoke test)")
     ap.add_argument("--subprocess", action="store_true", help="run `python -m vsa_gym.cli identify` per case")
+    ap.add_argument("--redo", type=int, nargs="+", default=None, metavar="CASE_SEED",
+                    help="re-run only these case seeds of OUT/results.json (e.g. after a fix of a crash) and "
+                         "re-summarise; the other cases are kept as they are")
     args = ap.parse_args(argv)
     specs = case_specs(args.draws, args.pairs, args.controls, args.seed, args.only, args.quick)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    kept: list[dict[str, Any]] = []
+    if args.redo:
+        old = json.loads((out / "results.json").read_text())["cases"]
+        missing = sorted(set(args.redo) - {r["seed"] for r in old})
+        if missing:
+            raise SystemExit(f"--redo: case seeds {missing} are not in {out / 'results.json'}")
+        kept = [r for r in old if r["seed"] not in args.redo]
+        specs = [s for s in specs if s["seed"] in args.redo]
     print(f"{len(specs)} cases, {args.jobs} job(s), base seed {args.seed}", flush=True)
-    rows: list[dict[str, Any]] = []
+    rows: list[dict[str, Any]] = list(kept)
     t0 = time.perf_counter()
     if args.jobs > 1:
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
             futures = [pool.submit(run_one, s, args.subprocess) for s in specs]
             for fut in as_completed(futures):
                 rows.append(fut.result())
-                print(_progress(len(rows), len(specs), rows[-1]), flush=True)
+                print(_progress(len(rows) - len(kept), len(specs), rows[-1]), flush=True)
     else:
         for s in specs:
             rows.append(run_one(s, args.subprocess))
-            print(_progress(len(rows), len(specs), rows[-1]), flush=True)
+            print(_progress(len(rows) - len(kept), len(specs), rows[-1]), flush=True)
     rows.sort(key=lambda r: r["index"])
     summary = summarise(rows)
     summary["wall_seconds"] = time.perf_counter() - t0
+    summary["redone"] = args.redo or []
     summary["settings"] = vars(args)
     (out / "results.json").write_text(json.dumps({"summary": summary, "cases": rows}, indent=2, default=float) + "\n")
     md = markdown(summary)

@@ -357,6 +357,7 @@ class Identifier:
         i = list(spec.keys).index(k)
         rows[:, i] = (np.array(grid) - prob.offs[i]) / prob.scale[i]
         sse = np.sum(prob.batch(rows) ** 2, axis=1)  # the fit-part cost of each start, one batched replay
+        sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
         return {k: float(grid[int(np.argmin(sse))])}
 
     def _judge(self, ad: Adapter, cand: Candidate, fm: FittedModel, current: FittedModel, floor: float) -> None:
@@ -438,11 +439,15 @@ class Identifier:
         Y = (y[mask] / sd).transpose(1, 0, 2).reshape(n, -1)
         r = ((ad.measured[mask] / sd).reshape(-1) - Y[0])
         nb = len(cur.keys)
-        B = (Y[1:1 + nb] - Y[0]).T
+        B = np.nan_to_num((Y[1:1 + nb] - Y[0]).T, nan=0.0, posinf=0.0, neginf=0.0)
         base_sse = _lstsq_sse(B, r)
         best: dict[str, float] = {}
         for i, name in enumerate(owner):
-            S = np.column_stack([B, Y[1 + nb + i] - Y[0]])
+            sig = Y[1 + nb + i] - Y[0]
+            if not np.all(np.isfinite(sig)):  # a size whose replay diverged says nothing about the effect
+                best.setdefault(name, -np.inf)
+                continue
+            S = np.column_stack([B, sig])
             best[name] = max(best.get(name, -np.inf), float((base_sse - _lstsq_sse(S, r)) / (base_sse or 1.0)))
         return sorted(best.items(), key=lambda s: -s[1])
 

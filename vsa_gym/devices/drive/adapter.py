@@ -107,6 +107,10 @@ class DriveAdapter(Adapter):
         self.loop_at_motor = self.loop_output is None or self.obs[self.loop_output] == 2
         self.loop_bias = self.measurement[self.loop_output].bias if self.loop_output is not None else 0.0
         pos0 = init.get("position")
+        # where the sidecar does not give the start position it is read from the first output, through the
+        # candidate's sensor model (offset, gain and the quantiser's bias taken out, :meth:`_start_states`):
+        # a sensor offset must not pass for a wrong start position
+        self.pos_measured = (pos0 is None and bool(self.outputs) and self.outputs[0].quantity == "position")
         if pos0 is None and "position" in record.outputs:
             pos0 = float(record.output("position")[0])
         self.x0 = np.zeros(drive.N_STATE)
@@ -239,6 +243,9 @@ class DriveAdapter(Adapter):
         equilibrium.
         """
         x0 = np.repeat(self.x0[None, :], P.shape[0], axis=0)
+        if position is None and self.pos_measured and theta is not None:
+            gain, offset, _ = (theta_column(theta, k, P.shape[0]) for k in SENSOR_KEYS)
+            x0[:, 0] = x0[:, 2] = (self.measured[0, 0] - self.measurement[0].bias - offset) / (1.0 + gain)
         if position is not None:
             x0[:, 0] = x0[:, 2] = position
         if speed is not None:
