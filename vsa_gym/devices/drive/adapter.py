@@ -201,11 +201,13 @@ class DriveAdapter(Adapter):
         zeta = theta_column(theta, "transmission_compliance.zeta", n, ZETA_COMPLIANCE)
         P[on, I["c_c"]] = np.maximum(P[on, I["c_c"]], 2 * zeta[on] * np.sqrt(kc[on] * red[on]))
         if "backlash.f_contact" in theta or "backlash.zeta_contact" in theta:  # the contact of a rigid drive
-            rigid = P[:, I["k_c"]] == 0.0
-            k_b = (2 * np.pi * theta_column(theta, "backlash.f_contact", n, drive.F_CONTACT)) ** 2 * red
+            f_b = theta_column(theta, "backlash.f_contact", n, drive.F_CONTACT)
             z_b = theta_column(theta, "backlash.zeta_contact", n, drive.ZETA_CONTACT)
-            P[rigid, I["k_contact"]] = k_b[rigid]
-            P[rigid, I["c_c"]] = 2 * z_b[rigid] * np.sqrt(k_b[rigid] * red[rigid])
+            # rows at the model's own contact keep it (bit for bit); the others get theirs explicitly
+            own = (P[:, I["k_c"]] == 0.0) & ((f_b != drive.F_CONTACT) | (z_b != drive.ZETA_CONTACT))
+            m_r = P[own, I["frac_m"]] * (1.0 - P[own, I["frac_m"]]) * P[own, I["m"]]
+            P[own, I["k_contact"]] = (2.0 * np.pi * f_b[own]) ** 2 * m_r
+            P[own, I["c_c"]] = 2.0 * z_b[own] * np.sqrt(P[own, I["k_contact"]] * m_r)
         fh = theta_column(theta, "hysteresis.F_h", n)
         P[:, I["F_h"]] += fh
         x_h = theta_column(theta, "hysteresis.x_h", n, 0.01 * getattr(self, "x_ref", 1.0))
