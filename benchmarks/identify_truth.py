@@ -3,6 +3,7 @@
     python -m benchmarks.identify_truth [--draws 4] [--pairs 8] [--controls 10] [--seed 20250]
                                         [--jobs N] [--only EFFECT] [--out out/identify_truth]
                                         [--quick] [--subprocess] [--redo CASE_SEED ...]
+    python -m benchmarks.identify_truth --join DIR [DIR ...] --out DIR
 
 Case set (every case drawn from its own seed, ``seed * 1000 + index``): each single effect of
 :data:`tests.truthsim.scenarios.EFFECTS` x ``--draws`` (this holds every member of the look-alike
@@ -268,7 +269,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--redo", type=int, nargs="+", default=None, metavar="CASE_SEED",
                     help="re-run only these case seeds of OUT/results.json (e.g. after a fix of a crash) and "
                          "re-summarise; the other cases are kept as they are")
+    ap.add_argument("--join", nargs="+", default=None, metavar="DIR",
+                    help="pool the cases of these earlier OUT folders (their results.json) into one summary in "
+                         "--out; nothing is re-run")
     args = ap.parse_args(argv)
+    if args.join:
+        rows = [r for d in args.join for r in json.loads((Path(d) / "results.json").read_text())["cases"]]
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        summary = summarise(rows)
+        summary["joined"] = list(args.join)
+        (out / "results.json").write_text(json.dumps({"summary": summary, "cases": rows}, indent=2,
+                                                     default=float) + "\n")
+        md = markdown(summary)
+        (out / "results.md").write_text(md)
+        print(md + f"\nwrote {out / 'results.json'} and {out / 'results.md'} ({len(rows)} cases joined)")
+        return 0
     specs = case_specs(args.draws, args.pairs, args.controls, args.seed, args.only, args.quick)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
