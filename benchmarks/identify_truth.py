@@ -275,15 +275,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.join:
         rows = [r for d in args.join for r in json.loads((Path(d) / "results.json").read_text())["cases"]]
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
         summary = summarise(rows)
         summary["joined"] = list(args.join)
-        (out / "results.json").write_text(json.dumps({"summary": summary, "cases": rows}, indent=2,
-                                                     default=float) + "\n")
-        md = markdown(summary)
-        (out / "results.md").write_text(md)
-        print(md + f"\nwrote {out / 'results.json'} and {out / 'results.md'} ({len(rows)} cases joined)")
+        _write(Path(args.out), summary, rows, f"{len(rows)} cases joined")
         return 0
     specs = case_specs(args.draws, args.pairs, args.controls, args.seed, args.only, args.quick)
     out = Path(args.out)
@@ -314,12 +308,18 @@ def main(argv: list[str] | None = None) -> int:
     summary["wall_seconds"] = time.perf_counter() - t0
     summary["redone"] = args.redo or []
     summary["settings"] = vars(args)
+    _write(out, summary, rows, f"{summary['wall_seconds']:.0f} s")
+    return 0
+
+
+def _write(out: Path, summary: dict[str, Any], rows: list[dict[str, Any]], note: str) -> None:
+    """``OUT/results.json`` (summary and cases) and ``OUT/results.md`` (the tables), also printed."""
+    out.mkdir(parents=True, exist_ok=True)
     (out / "results.json").write_text(json.dumps({"summary": summary, "cases": rows}, indent=2, default=float) + "\n")
     md = markdown(summary)
     (out / "results.md").write_text(md)
     print("\n" + md)
-    print(f"wrote {out / 'results.json'} and {out / 'results.md'} ({summary['wall_seconds']:.0f} s)")
-    return 0
+    print(f"wrote {out / 'results.json'} and {out / 'results.md'} ({note})")
 
 
 if __name__ == "__main__":

@@ -141,6 +141,25 @@ def _fit(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[Para
     return FittedModel(effects, list(keys), list(specs), p, ci, sse, N, score, at_bound, rho)
 
 
+def without_effect(fm: FittedModel, name: str) -> FittedModel:
+    """``fm`` with effect ``name`` and its parameters taken out (not refitted; scores are ``fm``'s)."""
+    keep = [i for i, k in enumerate(fm.keys) if not k.startswith(f"{name}.")]
+    return dataclasses.replace(fm, effects=tuple(e for e in fm.effects if e != name),
+                               keys=[fm.keys[i] for i in keep], specs=[fm.specs[i] for i in keep],
+                               values=fm.values[keep], ci=fm.ci[keep],
+                               at_bound=[k for k in fm.at_bound if not k.startswith(f"{name}.")])
+
+
+def effect_evidence(spec: EffectSpec, fm: FittedModel) -> tuple[bool, bool, list[str]]:
+    """What a fit says about one of its effects: whether every main parameter's CI excludes "absent", whether a
+    bound-checked parameter sits at a bound, and the main parameters within the nominal model's tolerance."""
+    main = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main]
+    excludes = all(not (fm.param(k)[1] <= p.absent <= fm.param(k)[2]) for k, p in main)
+    at_bound = any(k in fm.at_bound for k, p in zip(spec.keys, spec.params, strict=True) if p.check_bound)
+    small = [k for k, p in main if abs(fm.param(k)[0] - p.absent) < p.tolerance]
+    return excludes, at_bound, small
+
+
 # ----------------------------------------------------------------------------- estimator
 #: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
 RUNAWAY_NRMSE = 1.0
@@ -280,22 +299,13 @@ class Identifier:
         tanh law could not stand in for before the viscous part was there."""
         best: tuple[FittedModel, str, str] | None = None
         for old in fm.effects[:-1]:
-            spec = ad.effects[old]
-            stuck = any(k in fm.at_bound for k, p in zip(spec.keys, spec.params, strict=True) if p.check_bound)
+            stuck = effect_evidence(ad.effects[old], fm)[1]
             limit = (1 + self.margin if stuck else 1 - self.margin) * fm.val_score
-            keep = [i for i, k in enumerate(fm.keys) if not k.startswith(f"{old}.")]
-            reduced = dataclasses.replace(fm, effects=tuple(e for e in fm.effects if e != old),
-                                          keys=[fm.keys[i] for i in keep], specs=[fm.specs[i] for i in keep],
-                                          values=fm.values[keep], ci=fm.ci[keep],
-                                          at_bound=[k for k in fm.at_bound if not k.startswith(f"{old}.")])
+            reduced = without_effect(fm, old)
             for new in sorted(lookalikes(old) & set(names) - set(fm.effects)):
                 alt = self._with(ad, reduced, new, masks)
-                nspec = ad.effects[new]
-                main = [(k, p) for k, p in zip(nspec.keys, nspec.params, strict=True) if p.main]
-                sound = (all(not (alt.param(k)[1] <= p.absent <= alt.param(k)[2]) for k, p in main)
-                         and all(abs(alt.param(k)[0] - p.absent) >= p.tolerance for k, p in main)
-                         and not any(k in alt.at_bound for k, p in zip(nspec.keys, nspec.params, strict=True)
-                                     if p.check_bound and k in alt.keys))
+                excludes, at_bound, small = effect_evidence(ad.effects[new], alt)
+                sound = excludes and not at_bound and not small
                 if sound and alt.val_score < limit and (best is None or alt.val_score < best[0].val_score):
                     best = (alt, new, old)
         if best is None:
@@ -367,8 +377,7 @@ class Identifier:
         cand.values = {k: fm.param(k)[0] for k in spec.keys if k in fm.keys}
         cand.share = excess_share(fm.val_score, current.val_score, floor)
         main = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main]
-        cand.ci_excludes_absent = all(not (fm.param(k)[1] <= p.absent <= fm.param(k)[2]) for k, p in main)
-        cand.at_bound = any(k in fm.at_bound for k, p in zip(spec.keys, spec.params, strict=True) if p.check_bound)
+        cand.ci_excludes_absent, cand.at_bound, small = effect_evidence(spec, fm)
         reasons = []
         if not fm.val_score < (1 - self.margin) * current.val_score:
             reasons.append(f"validation error {fm.val_score:.4g} vs {current.val_score:.4g} "
@@ -386,7 +395,6 @@ class Identifier:
             reasons.append("CI includes absent")
         if cand.at_bound:
             reasons.append("parameter at a bound")
-        small = [k for k, p in main if abs(fm.param(k)[0] - p.absent) < p.tolerance]
         if small:
             reasons.append(f"{', '.join(small)} within the nominal model's tolerance")
         minor = [k for k, p in main if current.effects and k not in small
@@ -401,10 +409,8 @@ class Identifier:
                rnd: int) -> FittedModel:
         """Drop an earlier effect that the newly accepted set no longer needs (joint refit without it)."""
         for name in fm.effects[:-1]:
-            keep = [i for i, k in enumerate(fm.keys) if not k.startswith(f"{name}.")]
-            reduced = _fit(ad, {}, [fm.keys[i] for i in keep], [fm.specs[i] for i in keep],
-                           {fm.keys[i]: float(fm.values[i]) for i in keep}, masks,
-                           tuple(e for e in fm.effects if e != name), self.max_nfev)
+            base = without_effect(fm, name)
+            reduced = _fit(ad, {}, base.keys, base.specs, base.theta(), masks, base.effects, self.max_nfev)
             if reduced.val_score <= (1 + self.margin) * fm.val_score:
                 cands.append(Candidate(rnd, name, float("nan"), True, reduced.val_score, reduced.bic,
                                        reason=f"dropped: not needed beside {fm.effects[-1]} (validation "
@@ -523,5 +529,6 @@ def identify(data: str, *, max_effects: int = 2, replay: str | None = None, cand
     return est.result_
 
 
-__all__ = ["Candidate", "EffectSpec", "FittedModel", "IdentificationResult", "Identifier", "identify",
-           "output_metrics", "residual_tests"]
+__all__ = ["Candidate", "EffectSpec", "FittedModel", "IdentificationResult", "Identifier", "effect_evidence",
+           "identify",
+           "output_metrics", "residual_tests", "without_effect"]

@@ -61,9 +61,9 @@ LIBRARY: tuple[Effect, ...] = (
               lambda a: 0.05 * a.v_ref, lambda a: 0.05 * a.v_ref, main=False),
         # the decay's shape: 2 (LuGre's Gaussian) to 1 (Tustin's exponential; Armstrong-Helouvry et al. 1994);
         # below 1 the decay is so slow that it mimics Coulomb friction.  Held at 2 unless freeing it validates
-        # better: with the shape fixed at 2 an exponential decay came out with F_s 20-25 % low (independent
-        # records), but in a closed loop that crosses zero speed fast only F_s v_s is seen and a free shape
-        # trades against F_s
+        # better: with the shape fixed at 2 a near-exponential decay came out with F_s 22 % low (independent
+        # record, case 7005), but in a closed loop that crosses zero speed fast only F_s v_s is seen and a free
+        # shape trades against F_s
         Param("delta", "-", 1.0, 2.0, 2.0, 2.0, main=False, check_bound=False, optional=True)),
            enters="the static excess of the Stribeck steady state: F_f = (F_c + F_s exp(-|v/v_s|^delta)) "
                   "tanh(v/v_eps) + b v",
