@@ -22,3 +22,23 @@ def test_emps_names_coulomb_and_beats_linear_baseline(tmp_path):
     before, after = res["metrics"]["before"]["qm"], res["metrics"]["after"]["qm"]
     assert after["rmse"] < 5.53e-3 < before["rmse"]
     assert after["fit_percent"] > 90
+
+
+def test_emps_plateau_friction_opposes_motion_on_both_records():
+    """The diagnosis of benchmarks/real_records.py reads friction off the constant-speed stretches: every speed
+    band holds enough samples, the drive force has the sign of the speed (friction opposes motion) and grows
+    with the speed in both directions (viscous friction)."""
+    from benchmarks.real_records import SPEED_BANDS, emps_plateau_friction
+    from vsa_gym.identify.record import SHIPPED_DIR, load_record
+
+    rows = emps_plateau_friction(load_record(SHIPPED_DIR / "emps" / "emps_train.csv"),
+                                 load_record(SHIPPED_DIR / "emps" / "emps_test.csv"))
+    assert len(rows) == 2 * len(SPEED_BANDS)
+    for r in rows:
+        assert r["samples"] > 1000
+        for f in (r["force_train_N"], r["force_test_N"]):
+            assert f * r["speed_m_s"] > 0
+    for sign in (1, -1):
+        band = sorted((r for r in rows if sign * r["speed_m_s"] > 0), key=lambda r: abs(r["speed_m_s"]))
+        for key in ("force_train_N", "force_test_N"):
+            assert all(abs(a[key]) < abs(b[key]) for a, b in zip(band, band[1:], strict=False))
