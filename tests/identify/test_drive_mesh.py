@@ -96,3 +96,18 @@ def test_default_stribeck_shape_is_the_gaussian_bit_for_bit():
     assert np.array_equal(same, simulate(DriveParams(**{**p.__dict__, "delta_s": 2.0}).vector(1), u, 1e-3))
     other = simulate(DriveParams(**{**p.__dict__, "delta_s": 1.0}).vector(1), u, 1e-3)
     assert not np.allclose(same, other)
+
+
+def test_a_diverging_roll_out_raises_naming_the_row_instead_of_returning_nan():
+    """A contact far too stiff for the substep cap: the public roll-out names the row and the substeps; the
+    identification path (``diverged="nan"``) gets the non-finite row back to score it as infinitely bad."""
+    ok = DriveParams(m=M, k_u=1.0, frac_m=FRAC, backlash=1e-3)
+    stiff = DriveParams(m=M, k_u=1.0, frac_m=FRAC, backlash=1e-3, k_contact=1e14)
+    P = np.vstack([ok.vector(1), stiff.vector(1)])
+    u = np.sin(np.linspace(0, 20, 400)) * F
+    with pytest.raises(FloatingPointError, match=r"row\(s\) \[1\].*capped at 400"):
+        simulate(P, u, 1e-2)
+    y = simulate(P, u, 1e-2, diverged="nan")
+    assert np.all(np.isfinite(y[:, 0])) and not np.all(np.isfinite(y[:, 1]))
+    with pytest.raises(ValueError, match="diverged must be"):
+        simulate(P, u, 1e-2, diverged="ignore")

@@ -140,9 +140,13 @@ class DriveAdapter(Adapter):
     def _scales(self) -> None:
         P1 = self.param_matrix({}, 1)
         P = P1[0]
-        xs = drive.simulate(P1, self.u, self.dt, x0=self.x0, fext=self.fext, ref=self.ref,
-                            ff=self.ff, controller=self.ctrl, sensor_at_motor=self.loop_at_motor,
-                            sensor_bias=self.loop_bias)[:, 0, :]
+        try:
+            xs = drive.simulate(P1, self.u, self.dt, x0=self.x0, fext=self.fext, ref=self.ref,
+                                ff=self.ff, controller=self.ctrl, sensor_at_motor=self.loop_at_motor,
+                                sensor_bias=self.loop_bias)[:, 0, :]
+        except FloatingPointError as e:
+            raise ValueError(f"{self.record.path}: the sidecar's nominal model cannot be replayed on this record "
+                             f"({e})") from e
         self.F_ref = float(np.max(np.abs(P[drive.PIDX["k_u"]] * xs[:, 4]))) or 1.0
         self.v_ref = float(np.max(np.abs(xs[:, 1]))) or 1.0
         self.x_ref = float(np.std(xs[:, 0])) or 1.0
@@ -230,7 +234,7 @@ class DriveAdapter(Adapter):
                            controller=self.ctrl,
                            n_sub=drive.substeps(P, self.dt, vmax=getattr(self, "v_ref", 1.0) * 2),
                            sensor_at_motor=self.loop_at_motor, sensor_bias=self.loop_bias,
-                           sensor=self._loop_sensor(theta, P.shape[0]))
+                           sensor=self._loop_sensor(theta, P.shape[0]), diverged="nan")  # the fit skips such rows
         return y[:, :, self.obs]
 
     def _start_states(self, P: np.ndarray, a: int, position: np.ndarray | None = None,

@@ -353,8 +353,13 @@ def contact_stiffness(P: np.ndarray) -> np.ndarray:
     return np.where(P[:, PIDX["k_contact"]] > 0, P[:, PIDX["k_contact"]], (2 * np.pi * F_CONTACT) ** 2 * m_r)
 
 
-def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
-    """RK4 substeps that keep ``h |lambda| < 1.5`` for the fastest mode of every row."""
+#: most RK4 substeps per sample; a row whose fastest mode needs more may diverge (see :func:`simulate`)
+MAX_SUBSTEPS = 400
+
+
+def fastest_rate(P: np.ndarray, vmax: float = 1.0) -> np.ndarray:
+    """Each row's fastest mode ``|lambda|`` (1/s): friction regularisation or bristles, drive lag,
+    hysteresis at speed ``vmax``, and the transmission's compliance or backlash contact."""
     m = P[:, PIDX["m"]]
     frac = P[:, PIDX["frac_m"]]
     m_load = m * np.where((P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0), 1 - frac + 1e-9, 1.0)
@@ -372,19 +377,34 @@ def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
     c = np.where(comp | (P[:, PIDX["c_c"]] > 0), P[:, PIDX["c_c"]], 2 * ZETA_CONTACT * np.sqrt(k * m_r))
     mmin = np.minimum(frac, 1 - frac) * m
     rates.append(np.where(two, np.sqrt(k / mmin) + c / mmin, 0.0))
-    lam = float(np.max(np.concatenate([np.atleast_1d(r) for r in rates])))
-    return int(min(max(base, np.ceil(lam * dt / 1.5)), 400))
+    return np.max(np.stack([np.broadcast_to(r, m.shape) for r in rates]), axis=0)
+
+
+def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
+    """RK4 substeps that keep ``h |lambda| < 1.5`` for the fastest mode of every row (at most
+    :data:`MAX_SUBSTEPS`)."""
+    lam = float(np.max(fastest_rate(P, vmax)))
+    return int(min(max(base, np.ceil(lam * dt / 1.5)), MAX_SUBSTEPS))
 
 
 def simulate(P: np.ndarray, u: np.ndarray, dt: float, *, x0: np.ndarray | None = None,
              fext: np.ndarray | None = None, ref: np.ndarray | None = None, ff: np.ndarray | None = None,
              controller: tuple[float, float, float] | None = None, n_sub: int | None = None,
-             sensor_at_motor: bool = True, sensor_bias: float = 0.0, sensor: np.ndarray | None = None) -> np.ndarray:
+             sensor_at_motor: bool = True, sensor_bias: float = 0.0, sensor: np.ndarray | None = None,
+             diverged: str = "raise") -> np.ndarray:
     """Batched roll-out (see :func:`simulate_kernel`); ``P`` is ``(n, len(PNAMES))``, ``u`` is ``(T,)``.
 
     With a ``controller`` ``(kp, kv, saturation)`` the loop reads the position sensor at the motor
     (``sensor_at_motor``) or at the load, with the known ``sensor_bias`` and each row's sensor terms
-    ``sensor (n, 3) = [gain, offset, delay]`` (default: none)."""
+    ``sensor (n, 3) = [gain, offset, delay]`` (default: none).
+
+    A row whose roll-out is not finite (its fastest mode needs more than :data:`MAX_SUBSTEPS` substeps, or
+    its parameters make it unstable) raises a ``FloatingPointError`` naming the rows, the substeps used and
+    those the fastest mode asks for (``diverged="raise"``, the default); ``diverged="nan"`` returns such rows
+    as they are, for a caller that marks them itself (the identification fit scores a diverged row as
+    infinitely bad)."""
+    if diverged not in ("raise", "nan"):
+        raise ValueError(f"diverged must be 'raise' or 'nan', got {diverged!r}")
     P = np.ascontiguousarray(np.atleast_2d(P), dtype=np.float64)
     u = np.ascontiguousarray(u, dtype=np.float64)
     T, n = u.shape[0], P.shape[0]
@@ -396,6 +416,15 @@ def simulate(P: np.ndarray, u: np.ndarray, dt: float, *, x0: np.ndarray | None =
     sens = (np.zeros((n, 3)) if sensor is None
             else np.ascontiguousarray(np.broadcast_to(sensor, (n, 3)), dtype=np.float64))
     ns = substeps(P, dt) if n_sub is None else int(n_sub)
-    return simulate_kernel(P, x0.copy(), u, z if fext is None else np.ascontiguousarray(fext, dtype=np.float64),
-                           z if ref is None else np.ascontiguousarray(ref, dtype=np.float64),
-                           z if ff is None else np.ascontiguousarray(ff, dtype=np.float64), ctrl, sens, float(dt), ns)
+    xs = simulate_kernel(P, x0.copy(), u, z if fext is None else np.ascontiguousarray(fext, dtype=np.float64),
+                         z if ref is None else np.ascontiguousarray(ref, dtype=np.float64),
+                         z if ff is None else np.ascontiguousarray(ff, dtype=np.float64), ctrl, sens, float(dt), ns)
+    if diverged == "raise":
+        bad = np.flatnonzero(~np.all(np.isfinite(xs), axis=(0, 2)))
+        if bad.size:
+            need = np.ceil(fastest_rate(P[bad[:5]]) * dt / 1.5).astype(int).tolist()
+            raise FloatingPointError(
+                f"drive roll-out diverged in parameter row(s) {bad[:5].tolist()}{' ...' if bad.size > 5 else ''} "
+                f"with {ns} RK4 substeps per sample of {dt:g} s (the fastest mode of those rows asks for {need}, "
+                f"capped at {MAX_SUBSTEPS}); check their stiffness, contact, v_eps and tau_e, or pass n_sub")
+    return xs
