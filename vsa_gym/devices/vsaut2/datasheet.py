@@ -39,7 +39,7 @@ def _speed_at_torque(model: VsaUT2Model, tau_output: float) -> tuple[float, floa
     return float(w / p.frame_ratio), float(i)
 
 
-def _hysteresis_percent(model: VsaUT2Model, q1: float = 0.012, period: float = 4.0) -> float:
+def hysteresis_percent(model: VsaUT2Model, q1: float = 0.012, period: float = 4.0) -> float:
     """Torque hysteresis of a slow triangular output-torque sweep (frame motor shorted).
 
     Max torque difference between loading and unloading at equal deflection, in % of
@@ -107,7 +107,7 @@ def compute(params: VsaUT2Params | None = None) -> list[dict[str, Any]]:
         "finite difference at the soft end of the stroke (by construction: K_min sets q1_max)")
     add("Maximum Elastic Energy", "J", 0.19, float(p.lever.k * p.lever.x_max**2),
         "springs at their travel limit, k x_max^2 (by construction: x_max from this row)")
-    add("Maximum Torque Hysteresis", "%", 12.0, _hysteresis_percent(model),
+    add("Maximum Torque Hysteresis", "%", 12.0, hysteresis_percent(model),
         "slow triangular torque sweep at q1 = 12 mm; the nominal model has only viscous losses, so the "
         "paper's 12 % (friction, backlash) is an identification effect, not nominal physics")
     add("Maximum Deflection: max. stiffness", "deg", 2.0, float(np.rad2deg(peak / K_max)),
