@@ -78,3 +78,16 @@ def test_envs_take_the_set_by_name(env_id: str) -> None:
     assert gym.make(env_id, params="nominal").unwrapped.task.params == VsaUT2Params()
     with pytest.raises(ValueError, match="valid names: " + ", ".join(PARAMETER_SETS)):
         gym.make(env_id, params="measured")
+
+
+def test_the_datasheet_prints_paper_nominal_and_as_measured() -> None:
+    from vsa_gym.devices.vsaut2.datasheet import compute, format_table
+
+    rows = compute()
+    table = format_table(rows)
+    assert "| paper | nominal | rel. diff | as-measured | rel. diff |" in table.splitlines()[0]
+    by = {r["quantity"]: r for r in rows}
+    assert by["Maximum Torque Hysteresis"]["as_measured"] == pytest.approx(12.0, abs=0.1)
+    assert by["Maximum Torque Hysteresis"]["model"] < 3.0
+    assert by["Maximum Stiffness"]["as_measured"] == pytest.approx(948.0, abs=1.0)
+    assert by["Peak (Maximum) Torque"]["as_measured"] == by["Peak (Maximum) Torque"]["model"]  # drive unchanged
