@@ -91,3 +91,14 @@ def test_the_datasheet_prints_paper_nominal_and_as_measured() -> None:
     assert by["Maximum Torque Hysteresis"]["model"] < 3.0
     assert by["Maximum Stiffness"]["as_measured"] == pytest.approx(948.0, abs=1.0)
     assert by["Peak (Maximum) Torque"]["as_measured"] == by["Peak (Maximum) Torque"]["model"]  # drive unchanged
+
+
+def test_the_transfer_table_lists_both_sets() -> None:
+    from benchmarks.vsaut2_transfer import table
+
+    row = {"env": "vsa_gym/VsaUT2-Throw-v0", "policy": "p", "tuned_on": "nominal",
+           "nominal": {"return": 5.0, "violations": 0.0}, "as_measured": {"return": 4.0, "violations": 1.0}}
+    lines = table([row]).splitlines()
+    assert "| nominal | as-measured | change |" in lines[0]
+    assert lines[2] == "| VsaUT2-Throw-v0 | p | nominal | return | 5 | 4 | -20.0 % |"
+    assert lines[3] == "| | | | violations | 0 | 1 | +1 |"
