@@ -116,4 +116,31 @@ def fit_as_measured(base: VsaUT2Params | None = None, rounds: int = 3, xtol: flo
     return p, {"parameters": dict(x, phi_h=PHI_H), "figures": measured_figures(p)}
 
 
-__all__ = ["PHI_H", "TARGETS", "fit_as_measured", "measured_figures"]
+def report() -> str:
+    """Markdown: each measured figure, the paper's value, the nominal and the shipped as-measured model's, and the
+    refit's parameters next to the shipped ones (``python -m vsa_gym.devices.vsaut2.as_measured``)."""
+    from vsa_gym.devices.vsaut2.params import AS_MEASURED
+
+    nominal, shipped = measured_figures(VsaUT2Params()), measured_figures(VsaUT2Params.as_measured())
+    refit, rep = fit_as_measured()
+    out = ["| figure | unit | paper | nominal | as-measured (shipped) | source |", "|---|---|---|---|---|---|"]
+    for name, (value, unit, source) in TARGETS.items():
+        out.append(f"| {name} | {unit} | {value:g} | {nominal[name]:.4g} | {shipped[name]:.4g} | {source} |")
+    out.append(f"| decay_rate_per_s | 1/s | - | {nominal['decay_rate_per_s']:.4g} | {shipped['decay_rate_per_s']:.4g} "
+               "| ln(r_1 / r_5) / (t_5 - t_1) |")
+    out += ["", "| parameter | nominal | shipped | refit now |", "|---|---|---|---|"]
+    nom = VsaUT2Params()
+    base = {"effects.mu_h": nom.effects.mu_h, "effects.phi_h": nom.effects.phi_h, "I_o": nom.I_o, "c_o": nom.c_o,
+            "belt.C_belt": nom.belt.C_belt}
+    now = {"effects.mu_h": rep["parameters"]["mu_h"], "effects.phi_h": rep["parameters"]["phi_h"],
+           "I_o": rep["parameters"]["I_o"], "c_o": rep["parameters"]["c_o"], "belt.C_belt": rep["parameters"]["C_belt"]}
+    for key, value in AS_MEASURED.items():
+        out.append(f"| {key} | {float(base[key]):.6g} | {value:.6g} | {now[key]:.6g} |")
+    del refit
+    return "\n".join(out)
+
+
+__all__ = ["PHI_H", "TARGETS", "fit_as_measured", "measured_figures", "report"]
+
+if __name__ == "__main__":
+    print(report())
