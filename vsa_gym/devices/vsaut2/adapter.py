@@ -236,7 +236,7 @@ class Vsaut2Adapter(Adapter):
         x0 = model.initial_state(n, q1=self.q1_0, q2=self.q2_0, r=self.r_0)
         # the hysteresis state column (starting at 0) when some row has it on
         x0 = np.concatenate([x0[:, :N_STATES], np.zeros((n, len(EFFECT_STATE)))], axis=1) \
-            if np.any(P[:, self.col["effects.M_h"]] > 0.0) else x0[:, :N_STATES]
+            if np.any(P[:, [self.col["effects.M_h"], self.col["effects.mu_h"]]] > 0.0) else x0[:, :N_STATES]
         D = model.d_rows
         tau = self.tau[:, None] + theta_column(theta, "force_offset.F_0", n)[None, :]
         m = self.params.frame_motor

@@ -39,7 +39,7 @@ def _speed_at_torque(model: VsaUT2Model, tau_output: float) -> tuple[float, floa
     return float(w / p.frame_ratio), float(i)
 
 
-def _hysteresis_percent(model: VsaUT2Model, q1: float = 0.012, period: float = 4.0) -> float:
+def hysteresis_percent(model: VsaUT2Model, q1: float = 0.012, period: float = 4.0) -> float:
     """Torque hysteresis of a slow triangular output-torque sweep (frame motor shorted).
 
     Max torque difference between loading and unloading at equal deflection, in % of
@@ -65,8 +65,18 @@ def _sorted(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x[o], y[o]
 
 
-def compute(params: VsaUT2Params | None = None) -> list[dict[str, Any]]:
-    """All Table IV rows: ``{"quantity", "unit", "paper", "model", "rel_diff", "protocol"}``."""
+def compute(params: VsaUT2Params | None = None, as_measured: bool = True) -> list[dict[str, Any]]:
+    """All Table IV rows: ``{"quantity", "unit", "paper", "model", "rel_diff", "protocol"}`` for ``params``
+    (nominal by default); with ``as_measured`` (and no ``params``) each row also has ``"as_measured"`` and
+    ``"rel_diff_as_measured"``, the same protocol on :meth:`VsaUT2Params.as_measured`."""
+    rows = _compute(params)
+    if params is None and as_measured:
+        for row, other in zip(rows, _compute(VsaUT2Params.as_measured()), strict=True):
+            row["as_measured"], row["rel_diff_as_measured"] = other["model"], other["rel_diff"]
+    return rows
+
+
+def _compute(params: VsaUT2Params | None) -> list[dict[str, Any]]:
     model = VsaUT2Model(params or VsaUT2Params())
     p = model.params
     belt = p.belt.z_out / p.belt.z_in
@@ -107,9 +117,9 @@ def compute(params: VsaUT2Params | None = None) -> list[dict[str, Any]]:
         "finite difference at the soft end of the stroke (by construction: K_min sets q1_max)")
     add("Maximum Elastic Energy", "J", 0.19, float(p.lever.k * p.lever.x_max**2),
         "springs at their travel limit, k x_max^2 (by construction: x_max from this row)")
-    add("Maximum Torque Hysteresis", "%", 12.0, _hysteresis_percent(model),
+    add("Maximum Torque Hysteresis", "%", 12.0, hysteresis_percent(model),
         "slow triangular torque sweep at q1 = 12 mm; the nominal model has only viscous losses, so the "
-        "paper's 12 % (friction, backlash) is an identification effect, not nominal physics")
+        "paper's 12 % is an effect (as-measured: the load-proportional spring hysteresis mu_h)")
     add("Maximum Deflection: max. stiffness", "deg", 2.0, float(np.rad2deg(peak / K_max)),
         "peak torque / maximum stiffness")
     add("Maximum Deflection: min. stiffness", "deg", 40.1, float(np.rad2deg(p.lever.phi_max)),
@@ -128,11 +138,20 @@ def compute(params: VsaUT2Params | None = None) -> list[dict[str, Any]]:
 
 
 def format_table(rows: list[dict[str, Any]]) -> str:
-    """The rows as a markdown table."""
-    out = ["| # | quantity | unit | paper | model | rel. diff | protocol |", "|---|---|---|---|---|---|---|"]
+    """The rows as a markdown table: paper, nominal model and, when the rows have it, the as-measured model."""
+    both = any("as_measured" in r for r in rows)
+
+    def num(v: float | None) -> str:
+        return "-" if v is None else f"{v:.4g}"
+
+    def rel(v: float | None) -> str:
+        return "-" if v is None else f"{100 * v:+.1f} %"
+
+    head = "| # | quantity | unit | paper | nominal | rel. diff |" + (" as-measured | rel. diff |" if both else "")
+    out = [head + " protocol |", "|---" * (head.count("|")) + "|"]
     for i, r in enumerate(rows, 1):
         paper = "-" if r["paper"] is None else f"{r['paper']:g}"
-        model = "-" if r["model"] is None else f"{r['model']:.4g}"
-        rel = "-" if r["rel_diff"] is None else f"{100 * r['rel_diff']:+.1f} %"
-        out.append(f"| {i} | {r['quantity']} | {r['unit']} | {paper} | {model} | {rel} | {r['protocol']} |")
+        extra = f" {num(r.get('as_measured'))} | {rel(r.get('rel_diff_as_measured'))} |" if both else ""
+        out.append(f"| {i} | {r['quantity']} | {r['unit']} | {paper} | {num(r['model'])} | {rel(r['rel_diff'])} |"
+                   f"{extra} {r['protocol']} |")
     return "\n".join(out)

@@ -325,7 +325,8 @@ class VsaUT2PositionStiffnessEnv(TaskEnv):
     position_range=0.4, stiffness_range=(2, 300), disturbance_max=0.5, current_bandwidth_hz=1000.0,
     i_nominal=4.0, i2t_trip_s=2.0, i2t_foldback=(0.5, 0.9), i_foldback=3.0, velocity_cutoff_hz=50.0,
     integrator="rk4", parallel_rows=False)``.
-    ``params`` is any (e.g. identified) :class:`VsaUT2Params`;
+    ``params`` is any (e.g. identified) :class:`VsaUT2Params` or the name of a shipped set, ``"nominal"`` or
+    ``"as_measured"`` (:meth:`VsaUT2Params.as_measured`: the paper's measured hysteresis, Fig. 10 period and decay);
     ``domain_randomization`` maps dotted parameter paths to ``(low, high)`` ranges resampled on
     reset (:mod:`vsa_gym.envs.randomization`); ``sensor_noise``: ``False`` / ``True`` / scale /
     ``{{"current": sigma_A}}``.  ``control_dt`` defaults to 2 ms: the fastest mechanical mode

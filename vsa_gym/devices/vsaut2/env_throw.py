@@ -239,7 +239,8 @@ class VsaUT2ThrowEnv(TaskEnv):
     ``truncated``: the time limit (no release within the window).
 
     ## Arguments
-    ``control_dt`` (2 ms), ``control_mode``, ``params``, ``domain_randomization``, ``sensor_noise``,
+    ``control_dt`` (2 ms), ``control_mode``, ``params`` (a :class:`VsaUT2Params` or ``"nominal"`` /
+    ``"as_measured"``), ``domain_randomization``, ``sensor_noise``,
     ``regen`` ("clip"), ``render_mode``, ``release_angle`` (rad), ``energy_budget`` (J), ``horizon_s``
     (s, only for the ``time_left`` observation: set it with the time limit),
     ``initial_q1_fraction``, ``failure_penalty``, ``shaping`` (0), ``shaping_gamma`` (0.99), and the drive options of

@@ -63,21 +63,24 @@ def rhs_point(
     else:
         tau_fo = (e.F_c_o + e.F_s_o * np.exp(-((rd / e.w_s_o) ** 2))) * np.tanh(rd / e.w_eps)
     tau_fad = 0.0 * q2d if scalar_shortcut(e.F_c_ad == 0.0) else e.F_c_ad * np.tanh(q2d / e.w_eps)
-    # spring hysteresis (Dahl) along phi: torque -hz on the output, dhz/dt = (M_h phi_dot - |phi_dot| hz) / phi_h;
-    # stores hz^2 phi_h / (2 M_h), dissipates |phi_dot| hz^2 / M_h.  M_h = 0: absent (whatever hz), and the terms
-    # below are exactly 0.0 (tau_phi - 0.0 and viscous + 0.0 keep their bits)
+    # elastic elements (+ extension ports)
     phi_dot = rd - q2d
-    if scalar_shortcut(e.M_h == 0.0):
+    lev = lever_forces(p.lever, q1, r - q2, q1_dot, phi_dot)
+
+    # spring hysteresis (Dahl) along phi: torque -hz on the output, dhz/dt = (M phi_dot - |phi_dot| hz) / phi_h with
+    # the loop half-height M = M_h + mu_h |tau_s| (mu_h: load-proportional part, tau_s the lever spring torque);
+    # stores hz^2 phi_h / (2 M), dissipates |phi_dot| hz^2 / M.  M_h = mu_h = 0: absent (whatever hz), and the terms
+    # below are exactly 0.0 (tau_phi - 0.0 and viscous + 0.0 keep their bits); mu_h = 0: M = M_h + 0.0, same bits
+    if scalar_shortcut((e.M_h == 0.0) & (e.mu_h == 0.0)):
         tau_h, dhz, p_h = 0.0, 0.0, 0.0
     else:
-        on = e.M_h > 0.0
+        on = (e.M_h > 0.0) | (e.mu_h > 0.0)
+        m_h = e.M_h + e.mu_h * np.abs(lev.tau_phi)
         a_h = np.abs(phi_dot) * hz
         tau_h = select(on, hz, 0.0)
-        dhz = select(on, (e.M_h * phi_dot - a_h) / e.phi_h, 0.0)
-        p_h = select(on, a_h * hz / select(on, e.M_h, 1.0), 0.0)
+        dhz = select(on, (m_h * phi_dot - a_h) / e.phi_h, 0.0)
+        p_h = select(on, a_h * hz / select(on & (m_h > 0.0), m_h, 1.0), 0.0)
 
-    # elastic elements (+ extension ports)
-    lev = lever_forces(p.lever, q1, r - q2, q1_dot, phi_dot)
     F_b = belt_force(p.belt, delta_bl) + pt0
     tau_phi = lev.tau_phi + pt1 - tau_h
     F_q1 = lev.F_q1 + pt2

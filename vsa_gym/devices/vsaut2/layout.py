@@ -20,7 +20,7 @@ STATE_UNITS = ("A", "rad", "rad/s", "A", "rad", "rad/s", "rad", "rad/s", "rad", 
 EFFECT_STATE = {"h_phi": N_STATES}
 EFFECT_STATE_UNITS = ("N m",)
 #: The parameters (dotted paths) whose nonzero value switches a stateful effect, and with it its column, on.
-EFFECT_STATE_SWITCHES = ("effects.M_h",)
+EFFECT_STATE_SWITCHES = ("effects.M_h", "effects.mu_h")
 POWER = {name: i for i, name in enumerate(
     ("el_pivot", "el_frame", "ext", "copper", "viscous", "gearbox", "stops"))}
 N_POWER = len(POWER)
@@ -48,8 +48,9 @@ ETD_STIFF = (0, 3)
 
 def effect_state_columns(params: VsaUT2Params) -> int:
     """Number of effect-state columns (0 or 1) for ``params`` (shared or batched): 1 when some row has spring
-    hysteresis (``effects.M_h > 0``)."""
-    return int(bool(np.any(np.asarray(params.effects.M_h) > 0.0)))
+    hysteresis (``effects.M_h > 0`` or ``effects.mu_h > 0``)."""
+    e = params.effects
+    return int(bool(np.any(np.asarray(e.M_h) > 0.0) or np.any(np.asarray(e.mu_h) > 0.0)))
 
 
 class Derived(NamedTuple):

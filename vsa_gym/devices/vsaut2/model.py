@@ -338,14 +338,15 @@ class VsaUT2Model:
     # ------------------------------------------------------------------ observables
     def stored_energy(self, x: np.ndarray) -> np.ndarray:
         """Magnetic + kinetic + elastic energy (J), shape ``(n,)``; with spring hysteresis, the Dahl element's
-        ``h^2 phi_h / (2 M_h)`` too."""
+        ``h^2 phi_h / (2 M)`` too (``M = M_h + mu_h |tau_s|``)."""
         p = self.params
         m1, m2 = p.pivot_motor, p.frame_motor
         kin = self.kinematics(x)
         d = self._d
         e = 0.5 * (m1.L * x[..., 0] ** 2 + m2.L * x[..., 3] ** 2 + d.J1 * x[..., 2] ** 2 + d.J2 * x[..., 5] ** 2
                    + p.I_ad * x[..., 7] ** 2 + p.I_o * x[..., 9] ** 2)
-        e = e + lever_forces(p.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot).energy
+        lev = lever_forces(p.lever, kin.q1, kin.phi, kin.q1_dot, kin.phi_dot)
+        e = e + lev.energy
         e = e + 0.5 * p.belt.C_belt * kin.delta**2 - 0.5 * p.belt.C_belt * (
             dead_zone_energy(kin.delta + p.effects.b_belt, p.effects.b_eps)
             - dead_zone_energy(kin.delta - p.effects.b_belt, p.effects.b_eps))
@@ -354,7 +355,7 @@ class VsaUT2Model:
                                STOP_EPS_MOTOR).energy
         e = e + two_sided_stop(x[..., 6], zero, -p.q2_max, p.q2_max, p.K_q2, p.D_q2, STOP_EPS_FRAME).energy
         if self._n_eff:
-            M_h, h = p.effects.M_h, x[..., EFFECT_STATE["h_phi"]]
+            M_h, h = p.effects.M_h + p.effects.mu_h * np.abs(lev.tau_phi), x[..., EFFECT_STATE["h_phi"]]
             e = e + np.where(M_h > 0.0, 0.5 * h * h * p.effects.phi_h / np.where(M_h > 0.0, M_h, 1.0), 0.0)
         col = N_STATES + self._n_eff
         for ext in self.extensions:

@@ -139,7 +139,7 @@ class VsaUT2Task(CompiledStepTask):
         *,
         control_dt: float | None = None,
         control_mode: ControlMode = "voltage",
-        params: VsaUT2Params | None = None,
+        params: VsaUT2Params | str | None = None,
         domain_randomization: DomainRandomization | Mapping[str, tuple[float, float]] | None = None,
         sensor_noise: NoiseSpec = False,
         regen: RegenPolicy = "clip",
@@ -154,9 +154,7 @@ class VsaUT2Task(CompiledStepTask):
     ) -> None:
         super().__init__(n, control_dt=control_dt, control_mode=control_mode, sensor_noise=sensor_noise,
                          domain_randomization=domain_randomization, regen=regen)
-        base = VsaUT2Params() if params is None else params
-        if not isinstance(base, VsaUT2Params):
-            raise TypeError(f"params must be a VsaUT2Params, got {type(base).__name__}")
+        base = VsaUT2Params.resolve(params)  # None, a set's name ("nominal", "as_measured") or a VsaUT2Params
         bs = base.batch_size
         if bs is not None and bs != self.n:
             raise ValueError(f"params are batched with {bs} sets but there are {self.n} environments")
