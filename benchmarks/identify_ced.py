@@ -133,6 +133,11 @@ def main() -> None:
     if "coulomb_friction.F_c" in theta:  # the friction as a dead band of the summed drive voltage
         statements.insert(1, f"Equivalent dead band of the drive voltage: F_c / k_u = "
                              f"{theta['coulomb_friction.F_c'] / theta['base.k_u']:.3f} V")
+    if "coulomb_friction.v_t" in theta:  # freed: the friction builds up over a speed range instead of a sign
+        statements.insert(2, f"The friction builds up as F_c tanh(v / v_t) over v_t = "
+                             f"{theta['coulomb_friction.v_t']:.3g} au/s (held value: the model's v_eps = "
+                             f"{train.meta['model']['params']['v_eps']:.3g} "
+                             f"au/s), so the pulley creeps below the dead band instead of sticking")
     frac = theta["base.frac_m"]
     statements.append(f"Candidates: {', '.join(str(c) for c in cands) if cands else 'the whole catalogue'}")
     statements.append(f"Refitted drive and belt: tau_e = {theta['base.tau_e']:.3f} s, "

@@ -40,6 +40,8 @@ from vsa_gym.identify.selection import Ambiguity, excess_share, lookalikes, nois
 
 #: multiples of a candidate's typical size at which its ranking signature is taken (:meth:`Identifier._rank_sizes`)
 RANK_SIZES: tuple[float, ...] = (1.0, 4.0, 16.0)
+#: points of the grid over each optional shape parameter's range (see ``Identifier._shape_start``)
+SHAPE_GRID = 5
 
 
 class _Problem:
@@ -345,10 +347,41 @@ class Identifier:
                   (*current.effects, name), self.max_nfev)
         if len(held) == len(spec.keys):
             return fm
-        # the optional shape parameters are freed only where that validates better by the margin
+        # the optional shape parameters are freed only where that validates better by the margin; the free fit
+        # starts from the best point of a grid over the shapes (a friction that builds up over a wide speed range
+        # or a contact that rings fits only near its own shape, far from the held default)
+        start = {**init, **fm.theta(), **self._shape_start(ad, fm, spec, masks["fit"])}
         free = _fit(ad, {}, current.keys + list(spec.keys), current.specs + list(spec.params),
-                    {**init, **fm.theta()}, masks, (*current.effects, name), self.max_nfev)
+                    start, masks, (*current.effects, name), self.max_nfev)
         return free if free.val_score < (1 - self.margin) * fm.val_score else fm
+
+    @staticmethod
+    def _shape_start(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:
+        """Start of an effect's optional shape parameters (with its main parameter): the best fit-part cost on a
+        grid of shapes (``SHAPE_GRID`` points over each shape parameter's range, log-spaced where it is
+        positive, plus its default) times main sizes (the held fit's value at 0.5x, 1x and 2x, and the typical
+        size), all replayed in one batch.  Empty where the held fit's own point is the best."""
+        keys, params = list(spec.keys), list(spec.params)
+        theta = fm.theta()
+        prob = _Problem(ad, {k: v for k, v in theta.items() if k not in keys}, keys, params, mask)
+        here = np.array([theta.get(k, p.typical) for k, p in zip(keys, params, strict=True)])
+        axes = []
+        for k, p in zip(keys, params, strict=True):
+            if p.optional:
+                g = np.geomspace(p.lower, p.upper, SHAPE_GRID) if p.lower > 0 else np.linspace(p.lower, p.upper,
+                                                                                              SHAPE_GRID)
+                axes.append(np.unique(np.append(g, p.typical)))
+            elif p.main:
+                v = theta[k]
+                g = [p.absent + f * (v - p.absent) for f in (0.5, 1.0, 2.0)] + [p.typical]
+                axes.append(np.unique([x for x in g if p.lower < x < p.upper] or [v]))
+            else:
+                axes.append(np.array([theta.get(k, p.typical)]))
+        pts = np.vstack([here, np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T])
+        sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
+        sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
+        best = int(np.argmin(sse))
+        return {} if best == 0 or not sse[best] < sse[0] else dict(zip(keys, map(float, pts[best]), strict=True))
 
     @staticmethod
     def _start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:

@@ -179,6 +179,8 @@ class DriveAdapter(Adapter):
         if any(b.name == EMF_SHARE for b in self.base):
             P[:, I["b_emf"]] = P[:, I["b"]] * theta_column(theta, f"base.{EMF_SHARE}", n, 0.0)
         P[:, I["F_c"]] += theta_column(theta, "coulomb_friction.F_c", n)
+        if "coulomb_friction.v_t" in theta:
+            P[:, I["v_eps"]] = theta_column(theta, "coulomb_friction.v_t", n)
         P[:, I["F_s"]] += theta_column(theta, "stribeck_friction.F_s", n)
         if "stribeck_friction.v_s" in theta:
             P[:, I["v_s"]] = theta_column(theta, "stribeck_friction.v_s", n)

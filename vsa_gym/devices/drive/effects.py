@@ -52,8 +52,16 @@ IN_TRANSMISSION = "in the transmission"
 
 LIBRARY: tuple[Effect, ...] = (
     Effect("coulomb_friction", AT_LOAD, (Param("F_c", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0,
-                                               lambda a: 0.03 * a.F_ref),),
-           enters="adds F_c to the drive's Coulomb friction F_c sign(v)", when=lambda a: "F_c" not in a.free,
+                                               lambda a: 0.03 * a.F_ref),
+                                         # the speed over which the friction builds up, F_c tanh(v / v_t): held at
+                                         # the model's regularisation v_eps (a sharp sign) unless freeing it
+                                         # validates better (a lubricated contact that creeps instead of sticking)
+                                         Param("v_t", lambda a: f"{a.units[0]}/s", lambda a: a.params.v_eps,
+                                               lambda a: 0.2 * a.v_ref, lambda a: a.params.v_eps,
+                                               lambda a: a.params.v_eps, main=False, check_bound=False,
+                                               optional=True)),
+           enters="adds F_c to the drive's Coulomb friction F_c tanh(v / v_t) (v_t: the model's v_eps unless "
+                  "freed)", when=lambda a: "F_c" not in a.free,
            synthetic={SYNTHETIC: {"F_c": (0.6, 2.0)}}, source=SOURCE),
     Effect("stribeck_friction", AT_LOAD, (
         Param("F_s", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0, lambda a: 0.03 * a.F_ref),
