@@ -221,13 +221,12 @@ def omega_of_q(q: np.ndarray, z: np.ndarray, c: np.ndarray, J: np.ndarray) -> np
 
 @register_jitable
 def rhs_q_row(y: np.ndarray, u: float, rate: float, p: ElpasParams, vehicle: bool, c: float, J: float,
-              tau_ext: float, f_ext: float, k: np.ndarray, pw: np.ndarray) -> None:
-    """The right-hand side of one row in the ``(q, z)`` variables, from the point equations on scalars.
+              k: np.ndarray, pw: np.ndarray) -> None:
+    """The right-hand side of one row in the ``(q, z)`` variables, from the point equations on scalars (no
+    extensions: the compiled core has none).
 
-    ``y`` and ``k`` ``(n_states,)`` (``y`` in the ``(q, z)`` variables), ``pw`` ``(N_POWER,)``; fills the base
-    states of ``k`` (extension states' derivatives are the caller's) and every power channel.
-    ``rate``: dalpha/dt (rig) or dy_r/dt (vehicle); ``tau_ext``, ``f_ext``: the extensions' port moment and force
-    (0 without extensions); ``(c, J)``: :func:`q_constants`.
+    ``y`` and ``k`` ``(n_states,)`` (``y`` in the ``(q, z)`` variables), ``pw`` ``(N_POWER,)``; fills ``k`` and
+    every power channel.  ``rate``: dalpha/dt (rig) or dy_r/dt (vehicle); ``(c, J)``: :func:`q_constants`.
     """
     dr = p.drive
     gamma, i, z, alpha = y[GAMMA], y[CURRENT], y[BRISTLE], y[ALPHA]
@@ -235,7 +234,7 @@ def rhs_q_row(y: np.ndarray, u: float, rate: float, p: ElpasParams, vehicle: boo
     alpha_dot = y[ALPHA_DOT] if vehicle else rate
     stop_M, stop_diss = stop_point(gamma, omega, p.cone.gamma_max, dr.k_stop, dr.d_stop)
     d_omega, d_i, zdot, p_el, p_res, p_fric, p_ext, F_apart = actuator_terms(
-        gamma, omega, i, z, alpha, u, alpha_dot, p, tau_ext, f_ext, stop_M)
+        gamma, omega, i, z, alpha, u, alpha_dot, p, 0.0, 0.0, stop_M)
     k[GAMMA] = omega
     k[OMEGA] = J * d_omega + c * zdot
     k[CURRENT] = d_i

@@ -58,7 +58,6 @@ import numpy as np
 from vsa_gym.devices.elpas.cone import check_angles, effective_stiffness_unchecked, spring_unchecked
 from vsa_gym.devices.elpas.equations import (
     end_stop,
-    extension_ports,
     omega_of_q,
     q_constants,
     q_of_omega,
@@ -69,14 +68,12 @@ from vsa_gym.devices.elpas.equations import (
 )
 from vsa_gym.devices.elpas.extensions import check_extensions, total_states
 from vsa_gym.devices.elpas.integrator import (
-    N_PW_ROWS,
-    N_STAGES,
+    ETD_STIFF,
     REVERSAL_RATE_H,
     REVERSAL_REFINE,
     advance_row,
     advance_rows,
     reversal_rows,
-    stage_rows,
     substep_count,
 )
 from vsa_gym.devices.elpas.layout import (
@@ -111,7 +108,8 @@ from vsa_gym.devices.elpas.layout import (
 from vsa_gym.devices.elpas.packing import N_PARAM_COLS, matrix_row_params, params_matrix, params_tuple, take_rows
 from vsa_gym.devices.elpas.params import GRAVITY, ElpasParams
 from vsa_gym.physics.dc_motor import applied_voltage
-from vsa_gym.physics.friction import bristle_derivative, lugre_moment
+from vsa_gym.physics.friction import bristle_derivative, bristle_rate, lugre_moment
+from vsa_gym.physics.integrate import exponential_rk4
 from vsa_gym.physics.parameters import as_batch
 
 
@@ -122,35 +120,32 @@ def _check_state(name: str, x: np.ndarray, width: int) -> np.ndarray:
 
 def _integrate_with_extensions(p: ElpasParams, x: np.ndarray, rin: np.ndarray, extensions: Extensions,
                                vehicle: bool, n_sub: int) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`~vsa_gym.devices.elpas.integrator.integrate_row` for every row, with the extensions evaluated (in Python,
-    on columns) before each stage: the same compiled stages (:func:`~vsa_gym.devices.elpas.integrator.stage_rows`).
+    """The compiled step's scheme on the numpy path, for the extensions (Python objects on columns): the generic
+    batched ETDRK4 (:func:`vsa_gym.physics.integrate.exponential_rk4`) over the numpy right-hand side
+    (:func:`rhs_rig` / :func:`rhs_vehicle`) in the ``(q, z)`` variables, the bristle rate frozen per substep.
 
     ``x`` ``(n, n_base + n_ext)``; ``rin`` ``(n, 2)``: voltage, dalpha/dt (rig) or dy_r/dt (vehicle).
-    Extension states are integrated by the RK4 part of the scheme (they are not stiff).
+    Extension states are integrated by the RK4 part of the scheme (they are not stiff).  The same operations as
+    the compiled rows, but numpy's transcendental functions may round differently in the last bit.
     """
-    n, nx = x.shape
-    n_base = N_VEHICLE if vehicle else N_RIG
-    P = params_matrix(p, n)
     c, J = q_constants(p)
-    h = float(p.numerics.dt) / n_sub
-    Y = np.empty((n, N_STAGES, nx))
-    K = np.empty((n, N_STAGES, nx))
-    PW = np.empty((n, N_PW_ROWS, N_POWER))
-    energy = np.zeros((n, N_POWER))
-    Y[:, 0] = x
-    Y[:, 0, OMEGA] = q_of_omega(x[:, OMEGA], x[:, BRISTLE], c, J)
-    xs = np.empty((n, nx))
-    for _ in range(n_sub):
-        for s in range(N_STAGES):
-            xs[:] = Y[:, s]
-            xs[:, OMEGA] = omega_of_q(Y[:, s, OMEGA], Y[:, s, BRISTLE], c, J)
-            alpha_dot = xs[:, ALPHA_DOT] if vehicle else rin[:, IN_ALPHA]
-            ports, ext_dx = extension_ports(p, xs, alpha_dot, extensions, n_base)
-            K[:, s, n_base:] = ext_dx  # the stage evaluates the base states' derivatives
-            stage_rows(s, Y, K, PW, rin, P, vehicle, ports, h, energy)
-    x_new = Y[:, 0].copy()
-    x_new[:, OMEGA] = omega_of_q(Y[:, 0, OMEGA], Y[:, 0, BRISTLE], c, J)
-    return x_new, energy
+    rhs = rhs_vehicle if vehicle else rhs_rig
+
+    def rhs_q(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        xs = y.copy()
+        xs[:, OMEGA] = omega_of_q(y[:, OMEGA], y[:, BRISTLE], c, J)
+        dx, pw = rhs(p, xs, rin, extensions)
+        dx[:, OMEGA] = J * dx[:, OMEGA] + c * dx[:, BRISTLE]
+        return dx, pw
+
+    def rates(y: np.ndarray) -> np.ndarray:
+        return bristle_rate(p.friction, p.drive.N * (y[:, OMEGA] - c * y[:, BRISTLE]) / J)[:, None]
+
+    y = x.copy()
+    y[:, OMEGA] = q_of_omega(x[:, OMEGA], x[:, BRISTLE], c, J)
+    y, energy = exponential_rk4(rhs_q, y, float(p.numerics.dt), n_sub, ETD_STIFF, rates)
+    y[:, OMEGA] = omega_of_q(y[:, OMEGA], y[:, BRISTLE], c, J)
+    return y, energy
 
 
 def _advance(p: ElpasParams, x: np.ndarray, rin: np.ndarray, extensions: Extensions,
@@ -182,7 +177,7 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
         x: state ``(n, N_RIG + n_ext)``.
         inputs: ``(n, 2)``: voltage (V, held), ``alpha`` at the end of the step
             (rad, within ``+-alpha_max``; alpha moves linearly over the step).
-        extensions: model extensions (evaluated in Python between the compiled stages).
+        extensions: model extensions (Python objects: the numpy path of the same scheme).
         compiled: accepted for compatibility and ignored: every step runs the compiled integrator
             (:mod:`vsa_gym.devices.elpas.integrator`).  The first call in a fresh checkout compiles it once
             (30-100 s on a 2-core machine); numba then caches it on disk for every batch size and
