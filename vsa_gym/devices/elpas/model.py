@@ -10,7 +10,9 @@ Drive (eqs. 1-7): motor current ``i`` through the amplifier limits, reductor
 
 ``T_gamma`` is the spring moment on the arm (:mod:`vsa_gym.devices.elpas.cone`),
 ``T_stop`` the gamma end stops (Hunt-Crossley, beyond ``gamma_max``) and
-``T_ext`` the sum of the extensions' moments.
+``T_ext`` the sum of the extensions' moments.  The identified effects that the nominal model lacks are
+parameters of the compiled core (``params.effects``, :class:`~vsa_gym.devices.elpas.params.ElpasEffects`, all zero
+by default): the arm hysteresis (Dahl) adds ``-h`` to the moments on the arm, its state ``h`` an extra column.
 
 **Rig** (paper Sec. 5, hydropulse): ``alpha(t)`` is imposed, piecewise linear
 between control steps; the state carries ``alpha`` and the rhs input is
@@ -35,8 +37,9 @@ at the end of the step.  The gyroscopic coupling of the drive (mounted on the
 wishbone) with ``alpha`` is neglected, as in the paper's force controller.
 
 State layout (columns of ``x``, shape ``(n, n_states)``): see the ``GAMMA`` ...
-``Y_R`` constants; extension states follow the base states.  Power channels
-(columns of the ``power`` / ``energy`` arrays): ``P_EL`` ... ``P_OUT``, with the
+``Y_R`` constants; the arm hysteresis state ``h_gamma`` follows the base states when some row has
+``effects.M_h > 0`` (:data:`EFFECT_STATES`, absent otherwise: the nominal layout), then the extension states.
+Power channels (columns of the ``power`` / ``energy`` arrays): ``P_EL`` ... ``P_OUT``, with the
 balance ``E_el = dE_stored + E_res + E_fric + E_stop + E_damper + E_ext + E_out``
 (:func:`stored_energy`).  ``E_fric`` includes the small elastic bristle energy.
 
@@ -81,6 +84,8 @@ from vsa_gym.devices.elpas.layout import (
     ALPHA_DOT,
     BRISTLE,
     CURRENT,
+    EFFECT_STATE_SWITCHES,
+    EFFECT_STATES,
     GAMMA,
     IN_ALPHA,
     IN_ROAD,
@@ -104,6 +109,8 @@ from vsa_gym.devices.elpas.layout import (
     Y_R,
     Y_S,
     Extensions,
+    effect_column,
+    effect_state_columns,
 )
 from vsa_gym.devices.elpas.packing import N_PARAM_COLS, matrix_row_params, params_matrix, params_tuple, take_rows
 from vsa_gym.devices.elpas.params import GRAVITY, ElpasParams
@@ -174,7 +181,7 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
     """Advance the rig by one control step ``p.numerics.dt``.
 
     Args:
-        x: state ``(n, N_RIG + n_ext)``.
+        x: state ``(n, N_RIG + n_eff + n_ext)``: ``n_eff = effect_state_columns(p)`` (the arm hysteresis).
         inputs: ``(n, 2)``: voltage (V, held), ``alpha`` at the end of the step
             (rad, within ``+-alpha_max``; alpha moves linearly over the step).
         extensions: model extensions (Python objects: the numpy path of the same scheme).
@@ -191,7 +198,7 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
         ValueError: wrong shapes, non-finite voltage/alpha/state, alpha out of range.
     """
     check_extensions(extensions)
-    x = _check_state("x (rig state)", x, N_RIG + total_states(extensions))
+    x = _check_state("x (rig state)", x, N_RIG + effect_state_columns(p) + total_states(extensions))
     n = x.shape[0]
     inputs = _check_inputs(inputs, n, ("voltage", "alpha"))
     check_angles(p.cone, alpha=inputs[:, IN_ALPHA])
@@ -216,7 +223,7 @@ def step_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
     """Advance the quarter car by one control step ``p.numerics.dt``.
 
     Args:
-        x: state ``(n, N_VEHICLE + n_ext)``.
+        x: state ``(n, N_VEHICLE + n_eff + n_ext)``.
         inputs: ``(n, 2)``: voltage (V, held), road height at the end of the step
             (m; the road moves linearly over the step).
         extensions, compiled: as :func:`step_rig`.
@@ -225,7 +232,7 @@ def step_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
         ``(x_new, energy)`` as :func:`step_rig`.
     """
     check_extensions(extensions)
-    x = _check_state("x (vehicle state)", x, N_VEHICLE + total_states(extensions))
+    x = _check_state("x (vehicle state)", x, N_VEHICLE + effect_state_columns(p) + total_states(extensions))
     n = x.shape[0]
     inputs = _check_inputs(inputs, n, ("voltage", "road height"))
     return _step_vehicle_valid(p, x, inputs, extensions, compiled)
@@ -262,9 +269,10 @@ def _check_inputs(inputs: np.ndarray, n: int, names: Sequence[str]) -> np.ndarra
 # ----------------------------------------------------------------------------- initial states
 def initial_state_rig(p: ElpasParams, n: int, gamma: float | np.ndarray = 0.0, alpha: float | np.ndarray = 0.0,
                       extensions: Extensions = ()) -> np.ndarray:
-    """Rig at rest at ``(gamma, alpha)``, zero current and bristle deflection: ``(n, N_RIG + n_ext)``."""
+    """Rig at rest at ``(gamma, alpha)``, zero current, bristle deflection and hysteresis state:
+    ``(n, N_RIG + n_eff + n_ext)``."""
     check_angles(p.cone, gamma, alpha)
-    x = np.zeros((n, N_RIG))
+    x = np.zeros((n, N_RIG + effect_state_columns(p)))
     x[:, GAMMA] = gamma
     x[:, ALPHA] = alpha
     ext = [e.initial_state(n) for e in extensions]
@@ -292,10 +300,10 @@ def equilibrium_alpha(p: ElpasParams, gamma: float | np.ndarray = 0.0) -> np.nda
 
 def initial_state_vehicle(p: ElpasParams, n: int, gamma: float | np.ndarray = 0.0,
                           extensions: Extensions = ()) -> np.ndarray:
-    """Quarter car at static equilibrium at ``gamma`` on a road at height 0: ``(n, N_VEHICLE + n_ext)``."""
+    """Quarter car at static equilibrium at ``gamma`` on a road at height 0: ``(n, N_VEHICLE + n_eff + n_ext)``."""
     check_angles(p.cone, gamma=gamma)
     alpha = equilibrium_alpha(p, gamma)
-    x = np.zeros((n, N_VEHICLE))
+    x = np.zeros((n, N_VEHICLE + effect_state_columns(p)))
     x[:, GAMMA] = gamma
     x[:, ALPHA] = alpha
     x[:, Y_S] = -p.cone.l * np.sin(alpha)
@@ -344,12 +352,17 @@ def suspension_travel(p: ElpasParams, x: np.ndarray) -> np.ndarray:
 
 
 def stored_energy(p: ElpasParams, x: np.ndarray, vehicle: bool) -> np.ndarray:
-    """Energy stored in the model (J): inductance, drive kinetic, spring, end stops; for the
-    vehicle also body/wheel/wishbone kinetic, gravity and tyre energy.  Shape ``(n,)``."""
+    """Energy stored in the model (J): inductance, drive kinetic, spring, end stops, the arm hysteresis'
+    ``h^2 phi_h / (2 M_h)`` (when ``x`` has its column); for the vehicle also body/wheel/wishbone kinetic, gravity
+    and tyre energy.  Shape ``(n,)``."""
     m, dr, c = p.motor, p.drive, p.cone
     e = 0.5 * m.L * x[:, CURRENT] ** 2 + 0.5 * dr.J_r * x[:, OMEGA] ** 2
     e = e + spring_unchecked(c, x[:, GAMMA], x[:, ALPHA]).U
     e = e + end_stop(x[:, GAMMA], x[:, OMEGA], c.gamma_max, dr.k_stop, dr.d_stop)[2]
+    h_col = effect_column(vehicle)
+    if effect_state_columns(p) and x.shape[1] > h_col:
+        M_h, h = p.effects.M_h, x[:, h_col]
+        e = e + np.where(M_h > 0.0, 0.5 * h * h * p.effects.phi_h / np.where(M_h > 0.0, M_h, 1.0), 0.0)
     if vehicle:
         car = p.car
         alpha, ad, vs = x[:, ALPHA], x[:, ALPHA_DOT], x[:, V_S]
@@ -364,12 +377,13 @@ def stored_energy(p: ElpasParams, x: np.ndarray, vehicle: bool) -> np.ndarray:
 
 
 __all__ = [
-    "ALPHA", "ALPHA_DOT", "BRISTLE", "CURRENT", "GAMMA", "GRAVITY", "IN_ALPHA", "IN_ROAD", "IN_VOLTAGE", "N_PARAM_COLS",
-    "N_PORTS", "N_POWER", "N_RIG", "N_VEHICLE", "OMEGA", "POWER_NAMES", "P_DAMPER", "P_EL", "P_EXT", "P_FRIC", "P_OUT",
-    "P_RES", "P_STOP", "REVERSAL_RATE_H", "REVERSAL_REFINE", "RIG_STATE_NAMES", "VEHICLE_STATE_NAMES", "V_S", "Y_R",
-    "Y_S", "Extensions", "actuator_force_of", "advance_row", "disturbance_moment_of", "electrical_power",
+    "ALPHA", "ALPHA_DOT", "BRISTLE", "CURRENT", "EFFECT_STATES", "EFFECT_STATE_SWITCHES", "GAMMA", "GRAVITY",
+    "IN_ALPHA", "IN_ROAD", "IN_VOLTAGE", "N_PARAM_COLS", "N_PORTS", "N_POWER", "N_RIG", "N_VEHICLE", "OMEGA",
+    "POWER_NAMES", "P_DAMPER", "P_EL", "P_EXT", "P_FRIC", "P_OUT", "P_RES", "P_STOP", "REVERSAL_RATE_H",
+    "REVERSAL_REFINE", "RIG_STATE_NAMES", "VEHICLE_STATE_NAMES", "V_S", "Y_R", "Y_S", "Extensions", "actuator_force_of",
+    "advance_row", "disturbance_moment_of", "effect_column", "effect_state_columns", "electrical_power",
     "equilibrium_alpha", "friction_moment", "initial_state_rig", "initial_state_vehicle", "matrix_row_params",
     "motor_speed", "params_matrix", "params_tuple", "rhs_rig", "rhs_vehicle", "step_rig", "step_vehicle",
     "stored_energy", "substep_count", "suspension_travel", "take_rows", "tyre_force", "tyre_force_point",
-    "tyre_force_unchecked",
+    "tyre_force_unchecked"
 ]
