@@ -29,7 +29,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from vsa_gym.devices.elpas.equations import omega_of_q, q_constants, q_of_omega, rhs_q_row
-from vsa_gym.devices.elpas.layout import BRISTLE, N_POWER, OMEGA
+from vsa_gym.devices.elpas.layout import BRISTLE, N_POWER, OMEGA, effect_column
 from vsa_gym.devices.elpas.packing import ElpasT, matrix_row_params
 from vsa_gym.devices.elpas.params import ElpasParams
 from vsa_gym.physics.friction import bristle_rate
@@ -50,14 +50,15 @@ def substep_count(p: ElpasParams) -> int:
     return int(round(float(p.numerics.n_sub)))
 
 
-# inline="always": inlined into the stepper's stages, as rhs_q_row was into the former staged integrator
+# inline="always": inlined into the stepper's stages (and rhs_q_row into it)
 @register_jitable(inline="always")
 def point_rhs(ctx: Any, y: np.ndarray, k: np.ndarray, pw: np.ndarray) -> None:
     """The device contract's point right-hand side (:mod:`vsa_gym.physics.steppers`): ``ctx = (u, rate, p,
-    vehicle, c, J)`` -- held voltage, dalpha/dt (rig) or dy_r/dt (vehicle), this row's parameters, the
-    configuration and :func:`~vsa_gym.devices.elpas.equations.q_constants`; ``y`` in the ``(q, z)`` variables."""
-    u, rate, p, vehicle, c, J = ctx
-    rhs_q_row(y, u, rate, p, vehicle, c, J, k, pw)
+    vehicle, c, J, hyst)`` -- held voltage, dalpha/dt (rig) or dy_r/dt (vehicle), this row's parameters, the
+    configuration, :func:`~vsa_gym.devices.elpas.equations.q_constants` and whether the row runs its arm hysteresis
+    column; ``y`` in the ``(q, z)`` variables."""
+    u, rate, p, vehicle, c, J, hyst = ctx
+    rhs_q_row(y, u, rate, p, vehicle, c, J, hyst, k, pw)
 
 
 etd_row = etd_row_stepper(point_rhs, ETD_STIFF)
@@ -78,15 +79,21 @@ def integrate_row(x: np.ndarray, u: float, rate: float, p: ElpasT, dt: float, n_
     c, J = q_constants(p)
     work = np.empty((8, nx))  # one allocation for the stepper's scratch (small arrays cost more to allocate)
     k, y, ya, yb, yc = work[0:4], work[4], work[5], work[6], work[7]
-    qn = np.empty((4, N_POWER + 1))  # the stages' power channels, then their bristle nonlinear parts
-    q, nl = qn[:, :N_POWER], qn[:, N_POWER:]
+    q = np.empty((4, N_POWER))  # the stages' power channels
+    nl = np.empty((4, 1))  # the stages' bristle nonlinear parts
     for j in range(nx):
         y[j] = x[j]
     y[OMEGA] = q_of_omega(x[OMEGA], x[BRISTLE], c, J)
     for j in range(N_POWER):
         e_out[j] = 0.0
+    n_base = effect_column(vehicle)  # the effect columns follow the base states
+    hyst = nx > n_base and p.effects.M_h > 0.0  # the arm hysteresis column is there and on in this row
+    if not hyst:
+        for s in range(4):
+            for j in range(n_base, nx):
+                k[s, j] = 0.0  # an effect column carried for other rows keeps its value (rhs_q_row skips it)
     h = dt / n_sub
-    ctx = (u, rate, p, vehicle, c, J)
+    ctx = (u, rate, p, vehicle, c, J, hyst)
     for _ in range(n_sub):
         lam = bristle_rate(p.friction, p.drive.N * (y[OMEGA] - c * y[BRISTLE]) / J)
         e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights(lam, h)

@@ -46,8 +46,12 @@ EFFECT_STATE_SWITCHES = ("effects.M_h",)
 
 def effect_state_columns(params: ElpasParams) -> int:
     """Number of effect-state columns (0 or 1) for ``params`` (shared or batched): 1 when some row has arm
-    hysteresis (``effects.M_h > 0``)."""
-    return int(bool(np.any(np.asarray(params.effects.M_h) > 0.0)))
+    hysteresis (``effects.M_h > 0``).  Cached on ``params`` (frozen; the steps ask every call)."""
+    n = params.__dict__.get("_n_effect_states")
+    if n is None:
+        n = int(bool(np.any(np.asarray(params.effects.M_h) > 0.0)))
+        object.__setattr__(params, "_n_effect_states", n)
+    return n
 
 
 @register_jitable
