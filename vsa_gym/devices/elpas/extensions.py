@@ -16,8 +16,10 @@ extension states after its own, in the order the extensions are given, and
 books the power the extensions absorb, ``-(torque * omega + force * dx_ext/dt)``,
 in the ``P_EXT`` channel so the energy balance stays closed.  Extension states
 are integrated by plain RK4, so they must not be stiff at the substep.  Extensions run on the numpy
-path of the core's scheme (:func:`vsa_gym.devices.elpas.model.step_rig`), about 10x slower than the
-compiled core (``python -m benchmarks.elpas_effect_columns_speed``).
+path of the core's scheme (:func:`vsa_gym.devices.elpas.model.step_rig`), for prototyping an effect
+before it gets a column: one 1 ms step took 2.6 ms of CPU for 1 row and 10 ms for 256 rows, against
+31 us and 1.3 ms for the compiled core with the same law as a column
+(``python -m benchmarks.elpas_effect_columns_speed``, this machine).
 """
 
 from __future__ import annotations
