@@ -198,7 +198,8 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
         ValueError: wrong shapes, non-finite voltage/alpha/state, alpha out of range.
     """
     check_extensions(extensions)
-    x = _check_state("x (rig state)", x, N_RIG + effect_state_columns(p) + total_states(extensions))
+    n_ext = total_states(extensions) if extensions else 0  # (the common case without: no generator)
+    x = _check_state("x (rig state)", x, N_RIG + effect_state_columns(p) + n_ext)
     n = x.shape[0]
     inputs = _check_inputs(inputs, n, ("voltage", "alpha"))
     check_angles(p.cone, alpha=inputs[:, IN_ALPHA])
@@ -232,7 +233,8 @@ def step_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
         ``(x_new, energy)`` as :func:`step_rig`.
     """
     check_extensions(extensions)
-    x = _check_state("x (vehicle state)", x, N_VEHICLE + effect_state_columns(p) + total_states(extensions))
+    n_ext = total_states(extensions) if extensions else 0  # (the common case without: no generator)
+    x = _check_state("x (vehicle state)", x, N_VEHICLE + effect_state_columns(p) + n_ext)
     n = x.shape[0]
     inputs = _check_inputs(inputs, n, ("voltage", "road height"))
     return _step_vehicle_valid(p, x, inputs, extensions, compiled)
