@@ -14,7 +14,8 @@ Timed (one thread, ``time.perf_counter``, best of 3 repeats within an interprete
 
 * ``rig nN compiled``: ``model.step_rig(..., compiled=True)`` on ``N`` rows (0.1 ms step, random voltage, alpha sine);
 * ``rig nN default``: the same with the default ``compiled=False``;
-* ``rig nN dahl``: with one :class:`~vsa_gym.devices.elpas.extensions.DahlHysteresis` extension (the Python-level path);
+* ``rig nN dahl``: with the arm hysteresis (Dahl): before issue 17 a ``DahlHysteresis`` extension (the Python-level
+  path), since the compiled core's state column (``effects.M_h``);
 * ``vehicle n1 compiled``: ``model.step_vehicle`` on one row;
 * ``env voltage`` / ``env current``: ``ELPAS-ForceTracking-v0`` ``env.step`` (``gym.make``, default control step);
 * ``replay nN``: :class:`~vsa_gym.devices.elpas.adapter.ElpasAdapter` ``simulate`` of a 0.3 s synthetic record
@@ -32,6 +33,7 @@ import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -49,13 +51,25 @@ def _best(fn: Callable[[], None], calls: int, repeats: int = 3) -> float:
     return best * 1e6
 
 
+def _dahl(p: Any) -> tuple[Any, tuple]:
+    """The arm hysteresis (M_h = 20 N m, sigma = 2000 N m/rad) as this checkout runs it: ``(params, extensions)``.
+    Before issue 17 a numpy ``DahlHysteresis`` extension; since, the compiled core's state column
+    (``effects.M_h``, ``phi_h = M_h / sigma``)."""
+    try:
+        from vsa_gym.devices.elpas.extensions import DahlHysteresis  # type: ignore[attr-defined]
+    except ImportError:
+        from vsa_gym.devices.elpas.params import ElpasEffects
+
+        return p.replace(effects=ElpasEffects(M_h=20.0, phi_h=0.01)), ()
+    return p, (DahlHysteresis(M_h=20.0, sigma=2000.0),)
+
+
 def measure() -> dict[str, float]:
     """Time this interpreter's checkout (see the module docstring); microseconds per call."""
     import gymnasium as gym
 
     import vsa_gym
     from vsa_gym.devices.elpas import model as em
-    from vsa_gym.devices.elpas.extensions import DahlHysteresis
     from vsa_gym.devices.elpas.params import ElpasParams
 
     out: dict[str, float] = {}
@@ -66,18 +80,19 @@ def measure() -> dict[str, float]:
         volts = rng.uniform(-42.0, 42.0, (calls, n))
         alpha = np.radians(8.0) * np.sin(np.linspace(0.0, 6.0, calls))[:, None] * np.ones(n)
         inputs = [np.stack([volts[k], alpha[k]], axis=1) for k in range(calls)]
-        dahl = (DahlHysteresis(M_h=20.0, sigma=2000.0),)
-        for tag, kw, ext in (("compiled", {"compiled": True}, ()), ("default", {}, ()), ("dahl", {}, dahl)):
+        p_dahl, dahl = _dahl(p)
+        for tag, kw, ext, pp in (("compiled", {"compiled": True}, (), p), ("default", {}, (), p),
+                                 ("dahl", {}, dahl, p_dahl)):
             # the numpy paths of the original code are slow on many rows
             calls_t = 20 if tag != "compiled" and n > 1 and calls > 20 else calls
-            state = {"x": em.initial_state_rig(p, n, gamma=0.3, extensions=ext), "k": 0}
+            state = {"x": em.initial_state_rig(pp, n, gamma=0.3, extensions=ext), "k": 0}
 
             def step(kw: dict = kw, ext: tuple = ext, state: dict = state, calls_t: int = calls_t, n: int = n,
-                     inputs: list = inputs) -> None:
+                     inputs: list = inputs, pp: Any = pp) -> None:
                 k = state["k"] % calls_t
                 if k == 0:
-                    state["x"] = em.initial_state_rig(p, n, gamma=0.3, extensions=ext)
-                state["x"], _ = em.step_rig(p, state["x"], inputs[k], ext, **kw)
+                    state["x"] = em.initial_state_rig(pp, n, gamma=0.3, extensions=ext)
+                state["x"], _ = em.step_rig(pp, state["x"], inputs[k], ext, **kw)
                 state["k"] += 1
 
             step()  # warm-up (compilation or cache load)

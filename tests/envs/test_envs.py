@@ -476,3 +476,42 @@ def test_quarter_car_wk_filter_step_equals_scipy_sosfilt() -> None:
         y_ref, zi_ref = signal.sosfilt(sos, x[:, k:k + 1], axis=1, zi=zi_ref)
         np.testing.assert_array_equal(sos_step(sos, x[:, k].copy(), zi), y_ref[:, 0])
     np.testing.assert_array_equal(zi, np.moveaxis(zi_ref, 0, 1))
+
+
+def test_arm_hysteresis_state_column_in_the_elpas_envs() -> None:
+    """eLPAS arm hysteresis on (params, or randomised over its switch ``effects.M_h``): the env's core state has the
+    hysteresis column and each env step is the core's own step (``model.step_rig``, bit for bit); rows drawn with
+    ``M_h = 0`` keep it at exactly 0; a vector env equals single envs."""
+    from vsa_gym.devices.elpas import model as em
+    from vsa_gym.devices.elpas.params import ElpasEffects, ElpasParams
+
+    env = gym.make("vsa_gym/ELPAS-ForceTracking-v0", params=ElpasParams(effects=ElpasEffects(M_h=20.0)))
+    env.reset(seed=0)
+    task = env.unwrapped.task
+    assert task.s["x"].shape == (1, em.N_RIG + 1)
+    for a in _actions("vsa_gym/ELPAS-ForceTracking-v0", 60, seed=2):
+        x0 = task.s["x"].copy()
+        _, _, _, _, info = env.step(a)
+        u = float(np.clip(a, -1, 1)[0]) * float(task.params.motor.U_max)
+        x1, e = em.step_rig(task.params, x0, np.array([[u, task.s["x"][0, em.ALPHA]]]))
+        np.testing.assert_array_equal(task.s["x"], x1)
+        assert info["energy_el"] == e[0, em.P_EL]
+    assert 0.0 < abs(task.s["x"][0, em.N_RIG]) <= 20.0
+    dr = {"effects.M_h": (0.0, 30.0)}
+    venv = gym.make_vec("vsa_gym/ELPAS-QuarterCar-v0", num_envs=3, domain_randomization=dr)
+    venv.reset(seed=7)
+    acts = _actions("vsa_gym/ELPAS-QuarterCar-v0", 40, seed=5, n=3)
+    v_obs = [venv.step(acts[k])[0] for k in range(40)]
+    vt = venv.unwrapped.task
+    assert vt.s["x"].shape == (3, em.N_VEHICLE + 1) and np.all(np.abs(vt.s["x"][:, em.N_VEHICLE]) > 0.0)
+    for i in range(3):
+        env = gym.make("vsa_gym/ELPAS-QuarterCar-v0", domain_randomization=dr)
+        env.reset(seed=7 + i)
+        for k in range(40):
+            o = env.step(acts[k, i])[0]
+            np.testing.assert_allclose(o, v_obs[k][i], rtol=1e-12, atol=1e-12)
+    off = gym.make("vsa_gym/ELPAS-QuarterCar-v0", domain_randomization={"effects.M_h": (0.0, 0.0)})
+    off.reset(seed=0)
+    for a in _actions("vsa_gym/ELPAS-QuarterCar-v0", 20, seed=1):
+        off.step(a)
+    assert off.unwrapped.task.s["x"].shape == (1, em.N_VEHICLE + 1) and off.unwrapped.task.s["x"][0, -1] == 0.0

@@ -25,9 +25,8 @@ The current loop uses the controller's (nominal) ``K_T`` and ``R``: it is the
 amplifier's firmware, not the plant.  With nominal motor parameters this is exactly
 the environment's loop.
 
-Effects (all parameter-type, so the compiled core replays them; the core's
-extensions -- hysteresis, backlash, compliance -- need the 10x slower numpy path and
-are not offered here):
+Effects (all parameters of the compiled core, so the replay runs them; the stateful arm hysteresis is the core's
+effect-state column, present in the replay when some candidate row has ``M_h > 0``):
 
 * ``coulomb_friction.F_c`` (N m at the motor): added to ``friction.F_c`` *and*
   ``friction.F_s`` (the whole Stribeck curve shifts: "friction underestimated");
@@ -37,6 +36,8 @@ are not offered here):
 * ``inertia_error.rel``: ``drive.J_r *= 1 + rel``;
 * ``gearbox_efficiency.loss``: the motor moment reaching the reductor, ``K_T (1 - loss) i``
   (a symmetric efficiency);
+* ``hysteresis.M_h`` (N m), ``hysteresis.phi_h`` (rad): the arm hysteresis (Dahl) about gamma, ``effects.M_h`` /
+  ``effects.phi_h`` of :class:`~vsa_gym.devices.elpas.params.ElpasEffects`;
 * ``alpha_offset.offset`` (rad): the wishbone is at ``alpha_rec + offset`` -- the
   paper's alignment error (nonzero disturbance moment at alpha = 0); the controller
   still sees the recorded alpha;
@@ -161,6 +162,9 @@ class ElpasAdapter(Adapter):
         t.cone.C_a[:] *= 1.0 + theta_column(theta, "spring_stiffness_drift.drift", n)
         t.drive.J_r[:] *= 1.0 + theta_column(theta, "inertia_error.rel", n)
         t.motor.k_t[:] *= 1.0 - theta_column(theta, "gearbox_efficiency.loss", n)
+        t.effects.M_h[:] += theta_column(theta, "hysteresis.M_h", n)
+        if "hysteresis.phi_h" in theta:  # absent: the nominal presliding angle
+            t.effects.phi_h[:] = theta_column(theta, "hysteresis.phi_h", n)
         return t
 
     def simulate_states(self, theta: Theta, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -173,6 +177,8 @@ class ElpasAdapter(Adapter):
         N = float(nom.drive.N)
         alpha = self.alpha[:, None] + a_off[None, :]
         x = em.initial_state_rig(nom, n, gamma=self.gamma0, alpha=0.0)
+        if np.any(p.effects.M_h > 0.0) and x.shape[1] == em.N_RIG:  # the arm hysteresis' state column, h = 0
+            x = np.concatenate([x, np.zeros((n, 1))], axis=1)
         x[:, em.ALPHA] = alpha[0]
         pi_int = np.zeros(n)
         cascade = self._cascade()
@@ -210,7 +216,7 @@ class ElpasAdapter(Adapter):
         t = self.param_tuple({k: np.array([v]) for k, v in theta.items()}, 1)
         out = {f"{g}.{f}": float(getattr(getattr(t, g), f)[0]) for g, f in (
             ("friction", "F_c"), ("friction", "F_s"), ("friction", "s2"), ("cone", "C_a"), ("drive", "J_r"),
-            ("motor", "k_t"))}
+            ("motor", "k_t"), ("effects", "M_h"), ("effects", "phi_h"))}
         out["alpha_offset"] = float(theta.get("alpha_offset.offset", 0.0))
         return out
 
@@ -218,11 +224,12 @@ class ElpasAdapter(Adapter):
         """The identified model as an :class:`ElpasParams` (``gym.make(ID, params=...)`` takes it).
 
         ``theta``: fitted values by ``"effect.param"`` key (e.g. ``result.final.theta()``).  The
-        parameter-type effects change ``friction.F_c``/``F_s``/``s2``, ``cone.C_a``, ``drive.J_r`` and
-        ``motor.k_t`` exactly as in the replay (:meth:`param_tuple`).  Left out, because they are not
-        parameters of the plant: ``alpha_offset`` (an alignment of the rig) and the force sensor's
-        gain/offset/delay.  Note: with ``gearbox_efficiency`` the environments' current loop computes its
-        torque error with the returned (reduced) ``k_t``, the replay with the nominal one.
+        parameter-type effects change ``friction.F_c``/``F_s``/``s2``, ``cone.C_a``, ``drive.J_r``,
+        ``motor.k_t`` and the arm hysteresis ``effects.M_h``/``phi_h`` exactly as in the replay
+        (:meth:`param_tuple`).  Left out, because they are not parameters of the plant: ``alpha_offset`` (an
+        alignment of the rig) and the force sensor's gain/offset/delay.  Note: with ``gearbox_efficiency`` the
+        environments' current loop computes its torque error with the returned (reduced) ``k_t``, the replay
+        with the nominal one.
         """
         t = self.param_tuple({k: np.array([float(v)]) for k, v in theta.items()}, 1)
         p = self.nominal
@@ -235,7 +242,8 @@ class ElpasAdapter(Adapter):
                                          s2=val("friction", "s2")),
             cone=dataclasses.replace(p.cone, C_a=val("cone", "C_a")),
             drive=dataclasses.replace(p.drive, J_r=val("drive", "J_r")),
-            motor=dataclasses.replace(p.motor, k_t=val("motor", "k_t")))
+            motor=dataclasses.replace(p.motor, k_t=val("motor", "k_t")),
+            effects=dataclasses.replace(p.effects, M_h=val("effects", "M_h"), phi_h=val("effects", "phi_h")))
 
 
 __all__ = ["ElpasAdapter"]

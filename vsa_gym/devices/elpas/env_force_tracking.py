@@ -101,7 +101,7 @@ class ForceTrackingTask(ElpasTask):
         for i in rows:
             rng = self.rngs[int(i)]
             g = float(rng.uniform(-0.5, 0.5))
-            self.s["x"][i] = em.initial_state_rig(self.row_params[int(i)], 1, gamma=g, alpha=0.0)[0]
+            self._set_initial_state(int(i), em.initial_state_rig(self.row_params[int(i)], 1, gamma=g, alpha=0.0)[0])
         self.alpha_sig.reset(self.s, rows, self.rngs)
         self.ref.reset(self.s, rows, self.rngs)
         self.s["f_ref"][rows] = self.ref.value(self.s, np.zeros(len(rows)), rows)

@@ -144,7 +144,7 @@ class QuarterCarTask(ElpasTask):
         self._sample_params(rows)
         self._reset_drive(rows)
         for i in rows:
-            self.s["x"][i] = em.initial_state_vehicle(self.row_params[int(i)], 1, gamma=0.0)[0]
+            self._set_initial_state(int(i), em.initial_state_vehicle(self.row_params[int(i)], 1, gamma=0.0)[0])
             self._new_road(int(i), 0.0)
         for k in ("acc", "a_w", "acc_meas", "aw_sq_sum"):
             self.s[k][rows] = 0.0

@@ -42,10 +42,13 @@ from vsa_gym.devices.elpas.layout import (
     Y_R,
     Y_S,
     Extensions,
+    effect_column,
+    effect_state_columns,
 )
 from vsa_gym.devices.elpas.params import GRAVITY, ElpasParams
 from vsa_gym.physics.dc_motor import applied_voltage, current_derivative, shaft_torque
 from vsa_gym.physics.friction import bristle_derivative, lugre_moment
+from vsa_gym.physics.kernels import select
 
 
 # ----------------------------------------------------------------------------- point equations
@@ -85,10 +88,24 @@ def stop_point(q: float, qd: float, q_max: float, k: float, d: float) -> tuple[f
 
 
 @register_jitable
+def arm_hysteresis(e: ElpasParams, omega: np.ndarray, hz: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Arm hysteresis (Dahl, :class:`~vsa_gym.devices.elpas.params.ElpasEffects`) of state ``hz`` at arm speed
+    ``omega``: ``(moment h taken off the arm, dh/dt, dissipated power)``, each 0 where ``M_h = 0``.
+
+    ``e``: ``p.effects``; scalars (one compiled row) or ``(n,)`` columns.
+    """
+    on = e.M_h > 0.0
+    a_h = np.abs(omega) * hz
+    return (select(on, hz, 0.0), select(on, (e.M_h * omega - a_h) / e.phi_h, 0.0),
+            select(on, a_h * hz / select(on, e.M_h, 1.0), 0.0))
+
+
+@register_jitable
 def actuator_terms(gamma: np.ndarray, omega: np.ndarray, i: np.ndarray, z: np.ndarray, alpha: np.ndarray,
                     u: np.ndarray, alpha_dot: np.ndarray, p: ElpasParams, tau_ext: np.ndarray, f_ext: np.ndarray,
-                    stop_M: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Drive equations (module docstring) given the end-stop moment ``stop_M``.
+                    stop_M: np.ndarray, tau_h: np.ndarray | float) -> tuple[np.ndarray, ...]:
+    """Drive equations (module docstring) given the end-stop moment ``stop_M`` and the arm hysteresis moment
+    ``tau_h`` (:func:`arm_hysteresis`; taken off the arm, ``0.0`` without it).
 
     Returns ``(domega/dt, di/dt, dz/dt, P_EL, P_RES, P_FRIC, P_EXT, F_apart)`` with
     ``F_apart = F_act + port force``.
@@ -100,7 +117,7 @@ def actuator_terms(gamma: np.ndarray, omega: np.ndarray, i: np.ndarray, z: np.nd
     M_fric = lugre_moment(fr, w_m, z, zdot)
     sp = spring_unchecked(c, gamma, alpha)
     x_ext_rate = -c.l * np.cos(alpha) * alpha_dot
-    d_omega = (dr.N * (shaft_torque(m, i, w_m) - M_fric) + sp.T_gamma + stop_M + tau_ext) / dr.J_r
+    d_omega = (dr.N * (shaft_torque(m, i, w_m) - M_fric) + sp.T_gamma + stop_M + tau_ext - tau_h) / dr.J_r
     d_i = current_derivative(m, u_eff, i, w_m)
     return (d_omega, d_i, zdot, u_eff * i, m.R * i**2, (M_fric + m.b * w_m) * w_m,
             -(tau_ext * omega + f_ext * x_ext_rate), sp.F_act + f_ext)
@@ -108,21 +125,26 @@ def actuator_terms(gamma: np.ndarray, omega: np.ndarray, i: np.ndarray, z: np.nd
 
 @register_jitable
 def _actuator_core(x: np.ndarray, u: np.ndarray, alpha_dot: np.ndarray, p: ElpasParams, ports: np.ndarray,
-                   dx: np.ndarray, pw: np.ndarray) -> np.ndarray:
-    """Drive equations on columns: fills ``dx[:, :N_RIG]`` (alpha column excepted) and all
-    power channels but ``P_DAMPER``/``P_OUT`` (set to 0); returns ``F_apart = F_act + port force``."""
+                   dx: np.ndarray, pw: np.ndarray, h_col: int) -> np.ndarray:
+    """Drive equations on columns: fills ``dx[:, :N_RIG]`` (alpha column excepted), the arm hysteresis state's
+    derivative in column ``h_col`` (``-1``: no such column) and all power channels but ``P_DAMPER``/``P_OUT`` (set
+    to 0); returns ``F_apart = F_act + port force``."""
     dr, c = p.drive, p.cone
     gamma, omega = x[:, GAMMA], x[:, OMEGA]
     stop_M, stop_diss = _stop_terms(gamma, omega, c.gamma_max, dr.k_stop, dr.d_stop)
+    tau_h, p_h = 0.0, 0.0
+    if h_col >= 0:
+        tau_h, dx[:, h_col], p_h = arm_hysteresis(p.effects, omega, x[:, h_col])
     d_omega, d_i, zdot, p_el, p_res, p_fric, p_ext, F_apart = actuator_terms(
-        gamma, omega, x[:, CURRENT], x[:, BRISTLE], x[:, ALPHA], u, alpha_dot, p, ports[:, 0], ports[:, 1], stop_M)
+        gamma, omega, x[:, CURRENT], x[:, BRISTLE], x[:, ALPHA], u, alpha_dot, p, ports[:, 0], ports[:, 1], stop_M,
+        tau_h)
     dx[:, GAMMA] = omega
     dx[:, OMEGA] = d_omega
     dx[:, CURRENT] = d_i
     dx[:, BRISTLE] = zdot
     pw[:, P_EL] = p_el
     pw[:, P_RES] = p_res
-    pw[:, P_FRIC] = p_fric
+    pw[:, P_FRIC] = p_fric + p_h if h_col >= 0 else p_fric
     pw[:, P_STOP] = stop_diss
     pw[:, P_DAMPER] = 0.0
     pw[:, P_EXT] = p_ext
@@ -138,10 +160,11 @@ def rig_power_out(F_apart: np.ndarray, alpha: np.ndarray, alpha_dot: np.ndarray,
 
 @register_jitable
 def _rhs_rig_core(x: np.ndarray, rin: np.ndarray, p: ElpasParams, ports: np.ndarray, dx: np.ndarray,
-                  pw: np.ndarray) -> None:
-    """Rig right-hand side into ``dx[:, :N_RIG]`` and ``pw``; ``rin``: voltage, dalpha/dt."""
+                  pw: np.ndarray, h_col: int) -> None:
+    """Rig right-hand side into ``dx[:, :N_RIG]`` (and the hysteresis column ``h_col``, ``-1``: none) and ``pw``;
+    ``rin``: voltage, dalpha/dt."""
     alpha_dot = rin[:, IN_ALPHA]
-    F_apart = _actuator_core(x, rin[:, IN_VOLTAGE], alpha_dot, p, ports, dx, pw)
+    F_apart = _actuator_core(x, rin[:, IN_VOLTAGE], alpha_dot, p, ports, dx, pw, h_col)
     dx[:, ALPHA] = alpha_dot
     pw[:, P_OUT] = rig_power_out(F_apart, x[:, ALPHA], alpha_dot, p)
 
@@ -180,11 +203,12 @@ def vehicle_terms(alpha: np.ndarray, alpha_dot: np.ndarray, F_apart: np.ndarray,
 
 @register_jitable
 def _rhs_vehicle_core(x: np.ndarray, rin: np.ndarray, p: ElpasParams, ports: np.ndarray, dx: np.ndarray,
-                      pw: np.ndarray) -> None:
-    """Quarter-car right-hand side into ``dx[:, :N_VEHICLE]`` and ``pw``; ``rin``: voltage, dy_r/dt."""
+                      pw: np.ndarray, h_col: int) -> None:
+    """Quarter-car right-hand side into ``dx[:, :N_VEHICLE]`` (and the hysteresis column ``h_col``) and ``pw``;
+    ``rin``: voltage, dy_r/dt."""
     car = p.car
     alpha, alpha_dot = x[:, ALPHA], x[:, ALPHA_DOT]
-    F_apart = _actuator_core(x, rin[:, IN_VOLTAGE], alpha_dot, p, ports, dx, pw)
+    F_apart = _actuator_core(x, rin[:, IN_VOLTAGE], alpha_dot, p, ports, dx, pw, h_col)
     F_t = _tyre_force_core(x, p)
     bump_M, bump_diss = _stop_terms(alpha, alpha_dot, p.cone.alpha_max, car.k_bump, car.d_bump)
     d_ad, d_vs, p_damp, p_out = vehicle_terms(alpha, alpha_dot, F_apart, F_t, bump_M, rin[:, IN_ROAD], p)
@@ -219,30 +243,39 @@ def omega_of_q(q: np.ndarray, z: np.ndarray, c: np.ndarray, J: np.ndarray) -> np
     return (q - c * z) / J
 
 
-@register_jitable
+# inline="always": inlined into the generic stepper's four stages (as a call, the 10 kHz current loop ran about
+# 5 % slower than the former staged integrator; benchmarks.elpas_core_speed)
+@register_jitable(inline="always")
 def rhs_q_row(y: np.ndarray, u: float, rate: float, p: ElpasParams, vehicle: bool, c: float, J: float,
-              tau_ext: float, f_ext: float, k: np.ndarray, pw: np.ndarray) -> None:
-    """The right-hand side of one row in the ``(q, z)`` variables, from the point equations on scalars.
+              hyst: bool, k: np.ndarray, pw: np.ndarray) -> None:
+    """The right-hand side of one row in the ``(q, z)`` variables, from the point equations on scalars (no
+    extensions: the compiled core has none).
 
-    ``y`` and ``k`` ``(n_states,)`` (``y`` in the ``(q, z)`` variables), ``pw`` ``(N_POWER,)``; fills the base
-    states of ``k`` (extension states' derivatives are the caller's) and every power channel.
-    ``rate``: dalpha/dt (rig) or dy_r/dt (vehicle); ``tau_ext``, ``f_ext``: the extensions' port moment and force
-    (0 without extensions); ``(c, J)``: :func:`q_constants`.
+    ``y`` and ``k`` ``(n_states,)`` (``y`` in the ``(q, z)`` variables), ``pw`` ``(N_POWER,)``; fills ``k`` and
+    every power channel.  ``rate``: dalpha/dt (rig) or dy_r/dt (vehicle); ``(c, J)``: :func:`q_constants`.
+    ``hyst``: the row carries the arm hysteresis state (:func:`~vsa_gym.devices.elpas.layout.effect_column`) and
+    its ``M_h > 0`` (decided once per step by the caller); otherwise the effect is skipped, ``k`` keeps what the
+    caller put in the effect columns (0: the state keeps its value) and the arithmetic is the nominal one.
     """
     dr = p.drive
     gamma, i, z, alpha = y[GAMMA], y[CURRENT], y[BRISTLE], y[ALPHA]
     omega = omega_of_q(y[OMEGA], z, c, J)
     alpha_dot = y[ALPHA_DOT] if vehicle else rate
     stop_M, stop_diss = stop_point(gamma, omega, p.cone.gamma_max, dr.k_stop, dr.d_stop)
+    tau_h, p_h = 0.0, 0.0
+    if hyst:
+        h_col = effect_column(vehicle)
+        tau_h, dhz, p_h = arm_hysteresis(p.effects, omega, y[h_col])
+        k[h_col] = dhz
     d_omega, d_i, zdot, p_el, p_res, p_fric, p_ext, F_apart = actuator_terms(
-        gamma, omega, i, z, alpha, u, alpha_dot, p, tau_ext, f_ext, stop_M)
+        gamma, omega, i, z, alpha, u, alpha_dot, p, 0.0, 0.0, stop_M, tau_h)
     k[GAMMA] = omega
     k[OMEGA] = J * d_omega + c * zdot
     k[CURRENT] = d_i
     k[BRISTLE] = zdot
     pw[P_EL] = p_el
     pw[P_RES] = p_res
-    pw[P_FRIC] = p_fric
+    pw[P_FRIC] = p_fric + p_h if hyst else p_fric
     pw[P_EXT] = p_ext
     if vehicle:
         car = p.car
@@ -267,7 +300,8 @@ def rhs_q_row(y: np.ndarray, u: float, rate: float, p: ElpasParams, vehicle: boo
 # ----------------------------------------------------------------------------- numpy right-hand sides
 def extension_ports(p: ElpasParams, x: np.ndarray, alpha_dot: np.ndarray, extensions: Extensions,
                      n_base: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sum of the extensions' moments/forces ``(n, N_PORTS)`` and their state derivatives."""
+    """Sum of the extensions' moments/forces ``(n, N_PORTS)`` and their state derivatives; their states start at
+    column ``n_base`` (after the base and the effect states)."""
     n = x.shape[0]
     ports = np.zeros((n, N_PORTS))
     ext_dx = np.zeros((n, x.shape[1] - n_base))
@@ -294,18 +328,20 @@ def rhs_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
 
     Args:
         p: parameters (floats or ``(n,)`` arrays).
-        x: state ``(n, N_RIG + n_ext)``.
+        x: state ``(n, N_RIG + n_eff + n_ext)`` (``n_eff``: :func:`~vsa_gym.devices.elpas.layout.
+            effect_state_columns` of ``p``).
         inputs: ``(n, 2)``: voltage (V), ``dalpha/dt`` (rad/s).
-        extensions: model extensions (their states follow the base states).
+        extensions: model extensions (their states follow the base and effect states).
 
     Returns:
-        ``(dxdt, power)`` of shapes ``(n, N_RIG + n_ext)`` and ``(n, N_POWER)``.
+        ``(dxdt, power)`` of shapes ``(n, N_RIG + n_eff + n_ext)`` and ``(n, N_POWER)``.
     """
-    ports, ext_dx = extension_ports(p, x, inputs[:, IN_ALPHA], extensions, N_RIG)
+    n_eff = effect_state_columns(p)
+    ports, ext_dx = extension_ports(p, x, inputs[:, IN_ALPHA], extensions, N_RIG + n_eff)
     dx = np.empty_like(x)
     pw = np.empty((x.shape[0], N_POWER))
-    _rhs_rig_core(x, inputs, p, ports, dx, pw)
-    dx[:, N_RIG:] = ext_dx
+    _rhs_rig_core(x, inputs, p, ports, dx, pw, N_RIG if n_eff else -1)
+    dx[:, N_RIG + n_eff:] = ext_dx
     return dx, pw
 
 
@@ -315,18 +351,19 @@ def rhs_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
 
     Args:
         p: parameters (floats or ``(n,)`` arrays).
-        x: state ``(n, N_VEHICLE + n_ext)``.
+        x: state ``(n, N_VEHICLE + n_eff + n_ext)`` (as :func:`rhs_rig`).
         inputs: ``(n, 2)``: voltage (V), road rate ``dy_r/dt`` (m/s).
         extensions: model extensions.
 
     Returns:
-        ``(dxdt, power)`` of shapes ``(n, N_VEHICLE + n_ext)`` and ``(n, N_POWER)``.
+        ``(dxdt, power)`` of shapes ``(n, N_VEHICLE + n_eff + n_ext)`` and ``(n, N_POWER)``.
     """
-    ports, ext_dx = extension_ports(p, x, x[:, ALPHA_DOT], extensions, N_VEHICLE)
+    n_eff = effect_state_columns(p)
+    ports, ext_dx = extension_ports(p, x, x[:, ALPHA_DOT], extensions, N_VEHICLE + n_eff)
     dx = np.empty_like(x)
     pw = np.empty((x.shape[0], N_POWER))
-    _rhs_vehicle_core(x, inputs, p, ports, dx, pw)
-    dx[:, N_VEHICLE:] = ext_dx
+    _rhs_vehicle_core(x, inputs, p, ports, dx, pw, N_VEHICLE if n_eff else -1)
+    dx[:, N_VEHICLE + n_eff:] = ext_dx
     return dx, pw
 
 

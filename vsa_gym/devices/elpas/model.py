@@ -10,7 +10,9 @@ Drive (eqs. 1-7): motor current ``i`` through the amplifier limits, reductor
 
 ``T_gamma`` is the spring moment on the arm (:mod:`vsa_gym.devices.elpas.cone`),
 ``T_stop`` the gamma end stops (Hunt-Crossley, beyond ``gamma_max``) and
-``T_ext`` the sum of the extensions' moments.
+``T_ext`` the sum of the extensions' moments.  The identified effects that the nominal model lacks are
+parameters of the compiled core (``params.effects``, :class:`~vsa_gym.devices.elpas.params.ElpasEffects`, all zero
+by default): the arm hysteresis (Dahl) adds ``-h`` to the moments on the arm, its state ``h`` an extra column.
 
 **Rig** (paper Sec. 5, hydropulse): ``alpha(t)`` is imposed, piecewise linear
 between control steps; the state carries ``alpha`` and the rhs input is
@@ -35,8 +37,9 @@ at the end of the step.  The gyroscopic coupling of the drive (mounted on the
 wishbone) with ``alpha`` is neglected, as in the paper's force controller.
 
 State layout (columns of ``x``, shape ``(n, n_states)``): see the ``GAMMA`` ...
-``Y_R`` constants; extension states follow the base states.  Power channels
-(columns of the ``power`` / ``energy`` arrays): ``P_EL`` ... ``P_OUT``, with the
+``Y_R`` constants; the arm hysteresis state ``h_gamma`` follows the base states when some row has
+``effects.M_h > 0`` (:data:`EFFECT_STATES`, absent otherwise: the nominal layout), then the extension states.
+Power channels (columns of the ``power`` / ``energy`` arrays): ``P_EL`` ... ``P_OUT``, with the
 balance ``E_el = dE_stored + E_res + E_fric + E_stop + E_damper + E_ext + E_out``
 (:func:`stored_energy`).  ``E_fric`` includes the small elastic bristle energy.
 
@@ -58,7 +61,6 @@ import numpy as np
 from vsa_gym.devices.elpas.cone import check_angles, effective_stiffness_unchecked, spring_unchecked
 from vsa_gym.devices.elpas.equations import (
     end_stop,
-    extension_ports,
     omega_of_q,
     q_constants,
     q_of_omega,
@@ -69,14 +71,12 @@ from vsa_gym.devices.elpas.equations import (
 )
 from vsa_gym.devices.elpas.extensions import check_extensions, total_states
 from vsa_gym.devices.elpas.integrator import (
-    N_PW_ROWS,
-    N_STAGES,
+    ETD_STIFF,
     REVERSAL_RATE_H,
     REVERSAL_REFINE,
     advance_row,
     advance_rows,
     reversal_rows,
-    stage_rows,
     substep_count,
 )
 from vsa_gym.devices.elpas.layout import (
@@ -84,6 +84,8 @@ from vsa_gym.devices.elpas.layout import (
     ALPHA_DOT,
     BRISTLE,
     CURRENT,
+    EFFECT_STATE_SWITCHES,
+    EFFECT_STATES,
     GAMMA,
     IN_ALPHA,
     IN_ROAD,
@@ -107,11 +109,14 @@ from vsa_gym.devices.elpas.layout import (
     Y_R,
     Y_S,
     Extensions,
+    effect_column,
+    effect_state_columns,
 )
 from vsa_gym.devices.elpas.packing import N_PARAM_COLS, matrix_row_params, params_matrix, params_tuple, take_rows
 from vsa_gym.devices.elpas.params import GRAVITY, ElpasParams
 from vsa_gym.physics.dc_motor import applied_voltage
-from vsa_gym.physics.friction import bristle_derivative, lugre_moment
+from vsa_gym.physics.friction import bristle_derivative, bristle_rate, lugre_moment
+from vsa_gym.physics.integrate import exponential_rk4
 from vsa_gym.physics.parameters import as_batch
 
 
@@ -122,35 +127,32 @@ def _check_state(name: str, x: np.ndarray, width: int) -> np.ndarray:
 
 def _integrate_with_extensions(p: ElpasParams, x: np.ndarray, rin: np.ndarray, extensions: Extensions,
                                vehicle: bool, n_sub: int) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`~vsa_gym.devices.elpas.integrator.integrate_row` for every row, with the extensions evaluated (in Python,
-    on columns) before each stage: the same compiled stages (:func:`~vsa_gym.devices.elpas.integrator.stage_rows`).
+    """The compiled step's scheme on the numpy path, for the extensions (Python objects on columns): the generic
+    batched ETDRK4 (:func:`vsa_gym.physics.integrate.exponential_rk4`) over the numpy right-hand side
+    (:func:`rhs_rig` / :func:`rhs_vehicle`) in the ``(q, z)`` variables, the bristle rate frozen per substep.
 
     ``x`` ``(n, n_base + n_ext)``; ``rin`` ``(n, 2)``: voltage, dalpha/dt (rig) or dy_r/dt (vehicle).
-    Extension states are integrated by the RK4 part of the scheme (they are not stiff).
+    Extension states are integrated by the RK4 part of the scheme (they are not stiff).  The same operations as
+    the compiled rows, but numpy's transcendental functions may round differently in the last bit.
     """
-    n, nx = x.shape
-    n_base = N_VEHICLE if vehicle else N_RIG
-    P = params_matrix(p, n)
     c, J = q_constants(p)
-    h = float(p.numerics.dt) / n_sub
-    Y = np.empty((n, N_STAGES, nx))
-    K = np.empty((n, N_STAGES, nx))
-    PW = np.empty((n, N_PW_ROWS, N_POWER))
-    energy = np.zeros((n, N_POWER))
-    Y[:, 0] = x
-    Y[:, 0, OMEGA] = q_of_omega(x[:, OMEGA], x[:, BRISTLE], c, J)
-    xs = np.empty((n, nx))
-    for _ in range(n_sub):
-        for s in range(N_STAGES):
-            xs[:] = Y[:, s]
-            xs[:, OMEGA] = omega_of_q(Y[:, s, OMEGA], Y[:, s, BRISTLE], c, J)
-            alpha_dot = xs[:, ALPHA_DOT] if vehicle else rin[:, IN_ALPHA]
-            ports, ext_dx = extension_ports(p, xs, alpha_dot, extensions, n_base)
-            K[:, s, n_base:] = ext_dx  # the stage evaluates the base states' derivatives
-            stage_rows(s, Y, K, PW, rin, P, vehicle, ports, h, energy)
-    x_new = Y[:, 0].copy()
-    x_new[:, OMEGA] = omega_of_q(Y[:, 0, OMEGA], Y[:, 0, BRISTLE], c, J)
-    return x_new, energy
+    rhs = rhs_vehicle if vehicle else rhs_rig
+
+    def rhs_q(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        xs = y.copy()
+        xs[:, OMEGA] = omega_of_q(y[:, OMEGA], y[:, BRISTLE], c, J)
+        dx, pw = rhs(p, xs, rin, extensions)
+        dx[:, OMEGA] = J * dx[:, OMEGA] + c * dx[:, BRISTLE]
+        return dx, pw
+
+    def rates(y: np.ndarray) -> np.ndarray:
+        return bristle_rate(p.friction, p.drive.N * (y[:, OMEGA] - c * y[:, BRISTLE]) / J)[:, None]
+
+    y = x.copy()
+    y[:, OMEGA] = q_of_omega(x[:, OMEGA], x[:, BRISTLE], c, J)
+    y, energy = exponential_rk4(rhs_q, y, float(p.numerics.dt), n_sub, ETD_STIFF, rates)
+    y[:, OMEGA] = omega_of_q(y[:, OMEGA], y[:, BRISTLE], c, J)
+    return y, energy
 
 
 def _advance(p: ElpasParams, x: np.ndarray, rin: np.ndarray, extensions: Extensions,
@@ -179,10 +181,10 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
     """Advance the rig by one control step ``p.numerics.dt``.
 
     Args:
-        x: state ``(n, N_RIG + n_ext)``.
+        x: state ``(n, N_RIG + n_eff + n_ext)``: ``n_eff = effect_state_columns(p)`` (the arm hysteresis).
         inputs: ``(n, 2)``: voltage (V, held), ``alpha`` at the end of the step
             (rad, within ``+-alpha_max``; alpha moves linearly over the step).
-        extensions: model extensions (evaluated in Python between the compiled stages).
+        extensions: model extensions (Python objects: the numpy path of the same scheme).
         compiled: accepted for compatibility and ignored: every step runs the compiled integrator
             (:mod:`vsa_gym.devices.elpas.integrator`).  The first call in a fresh checkout compiles it once
             (30-100 s on a 2-core machine); numba then caches it on disk for every batch size and
@@ -196,7 +198,8 @@ def step_rig(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
         ValueError: wrong shapes, non-finite voltage/alpha/state, alpha out of range.
     """
     check_extensions(extensions)
-    x = _check_state("x (rig state)", x, N_RIG + total_states(extensions))
+    n_ext = total_states(extensions) if extensions else 0  # (the common case without: no generator)
+    x = _check_state("x (rig state)", x, N_RIG + effect_state_columns(p) + n_ext)
     n = x.shape[0]
     inputs = _check_inputs(inputs, n, ("voltage", "alpha"))
     check_angles(p.cone, alpha=inputs[:, IN_ALPHA])
@@ -221,7 +224,7 @@ def step_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
     """Advance the quarter car by one control step ``p.numerics.dt``.
 
     Args:
-        x: state ``(n, N_VEHICLE + n_ext)``.
+        x: state ``(n, N_VEHICLE + n_eff + n_ext)``.
         inputs: ``(n, 2)``: voltage (V, held), road height at the end of the step
             (m; the road moves linearly over the step).
         extensions, compiled: as :func:`step_rig`.
@@ -230,7 +233,8 @@ def step_vehicle(p: ElpasParams, x: np.ndarray, inputs: np.ndarray,
         ``(x_new, energy)`` as :func:`step_rig`.
     """
     check_extensions(extensions)
-    x = _check_state("x (vehicle state)", x, N_VEHICLE + total_states(extensions))
+    n_ext = total_states(extensions) if extensions else 0  # (the common case without: no generator)
+    x = _check_state("x (vehicle state)", x, N_VEHICLE + effect_state_columns(p) + n_ext)
     n = x.shape[0]
     inputs = _check_inputs(inputs, n, ("voltage", "road height"))
     return _step_vehicle_valid(p, x, inputs, extensions, compiled)
@@ -267,9 +271,10 @@ def _check_inputs(inputs: np.ndarray, n: int, names: Sequence[str]) -> np.ndarra
 # ----------------------------------------------------------------------------- initial states
 def initial_state_rig(p: ElpasParams, n: int, gamma: float | np.ndarray = 0.0, alpha: float | np.ndarray = 0.0,
                       extensions: Extensions = ()) -> np.ndarray:
-    """Rig at rest at ``(gamma, alpha)``, zero current and bristle deflection: ``(n, N_RIG + n_ext)``."""
+    """Rig at rest at ``(gamma, alpha)``, zero current, bristle deflection and hysteresis state:
+    ``(n, N_RIG + n_eff + n_ext)``."""
     check_angles(p.cone, gamma, alpha)
-    x = np.zeros((n, N_RIG))
+    x = np.zeros((n, N_RIG + effect_state_columns(p)))
     x[:, GAMMA] = gamma
     x[:, ALPHA] = alpha
     ext = [e.initial_state(n) for e in extensions]
@@ -297,10 +302,10 @@ def equilibrium_alpha(p: ElpasParams, gamma: float | np.ndarray = 0.0) -> np.nda
 
 def initial_state_vehicle(p: ElpasParams, n: int, gamma: float | np.ndarray = 0.0,
                           extensions: Extensions = ()) -> np.ndarray:
-    """Quarter car at static equilibrium at ``gamma`` on a road at height 0: ``(n, N_VEHICLE + n_ext)``."""
+    """Quarter car at static equilibrium at ``gamma`` on a road at height 0: ``(n, N_VEHICLE + n_eff + n_ext)``."""
     check_angles(p.cone, gamma=gamma)
     alpha = equilibrium_alpha(p, gamma)
-    x = np.zeros((n, N_VEHICLE))
+    x = np.zeros((n, N_VEHICLE + effect_state_columns(p)))
     x[:, GAMMA] = gamma
     x[:, ALPHA] = alpha
     x[:, Y_S] = -p.cone.l * np.sin(alpha)
@@ -349,12 +354,17 @@ def suspension_travel(p: ElpasParams, x: np.ndarray) -> np.ndarray:
 
 
 def stored_energy(p: ElpasParams, x: np.ndarray, vehicle: bool) -> np.ndarray:
-    """Energy stored in the model (J): inductance, drive kinetic, spring, end stops; for the
-    vehicle also body/wheel/wishbone kinetic, gravity and tyre energy.  Shape ``(n,)``."""
+    """Energy stored in the model (J): inductance, drive kinetic, spring, end stops, the arm hysteresis'
+    ``h^2 phi_h / (2 M_h)`` (when ``x`` has its column); for the vehicle also body/wheel/wishbone kinetic, gravity
+    and tyre energy.  Shape ``(n,)``."""
     m, dr, c = p.motor, p.drive, p.cone
     e = 0.5 * m.L * x[:, CURRENT] ** 2 + 0.5 * dr.J_r * x[:, OMEGA] ** 2
     e = e + spring_unchecked(c, x[:, GAMMA], x[:, ALPHA]).U
     e = e + end_stop(x[:, GAMMA], x[:, OMEGA], c.gamma_max, dr.k_stop, dr.d_stop)[2]
+    h_col = effect_column(vehicle)
+    if effect_state_columns(p) and x.shape[1] > h_col:
+        M_h, h = p.effects.M_h, x[:, h_col]
+        e = e + np.where(M_h > 0.0, 0.5 * h * h * p.effects.phi_h / np.where(M_h > 0.0, M_h, 1.0), 0.0)
     if vehicle:
         car = p.car
         alpha, ad, vs = x[:, ALPHA], x[:, ALPHA_DOT], x[:, V_S]
@@ -369,12 +379,13 @@ def stored_energy(p: ElpasParams, x: np.ndarray, vehicle: bool) -> np.ndarray:
 
 
 __all__ = [
-    "ALPHA", "ALPHA_DOT", "BRISTLE", "CURRENT", "GAMMA", "GRAVITY", "IN_ALPHA", "IN_ROAD", "IN_VOLTAGE", "N_PARAM_COLS",
-    "N_PORTS", "N_POWER", "N_RIG", "N_VEHICLE", "OMEGA", "POWER_NAMES", "P_DAMPER", "P_EL", "P_EXT", "P_FRIC", "P_OUT",
-    "P_RES", "P_STOP", "REVERSAL_RATE_H", "REVERSAL_REFINE", "RIG_STATE_NAMES", "VEHICLE_STATE_NAMES", "V_S", "Y_R",
-    "Y_S", "Extensions", "actuator_force_of", "advance_row", "disturbance_moment_of", "electrical_power",
+    "ALPHA", "ALPHA_DOT", "BRISTLE", "CURRENT", "EFFECT_STATES", "EFFECT_STATE_SWITCHES", "GAMMA", "GRAVITY",
+    "IN_ALPHA", "IN_ROAD", "IN_VOLTAGE", "N_PARAM_COLS", "N_PORTS", "N_POWER", "N_RIG", "N_VEHICLE", "OMEGA",
+    "POWER_NAMES", "P_DAMPER", "P_EL", "P_EXT", "P_FRIC", "P_OUT", "P_RES", "P_STOP", "REVERSAL_RATE_H",
+    "REVERSAL_REFINE", "RIG_STATE_NAMES", "VEHICLE_STATE_NAMES", "V_S", "Y_R", "Y_S", "Extensions", "actuator_force_of",
+    "advance_row", "disturbance_moment_of", "effect_column", "effect_state_columns", "electrical_power",
     "equilibrium_alpha", "friction_moment", "initial_state_rig", "initial_state_vehicle", "matrix_row_params",
     "motor_speed", "params_matrix", "params_tuple", "rhs_rig", "rhs_vehicle", "step_rig", "step_vehicle",
     "stored_energy", "substep_count", "suspension_travel", "take_rows", "tyre_force", "tyre_force_point",
-    "tyre_force_unchecked",
+    "tyre_force_unchecked"
 ]

@@ -82,6 +82,13 @@ class CarT(NamedTuple):
     d_bump: np.ndarray
 
 
+class EffectsT(NamedTuple):
+    """:class:`~vsa_gym.devices.elpas.params.ElpasEffects` fields (arm hysteresis)."""
+
+    M_h: np.ndarray
+    phi_h: np.ndarray
+
+
 class ElpasT(NamedTuple):
     """The groups of :class:`~vsa_gym.devices.elpas.params.ElpasParams` read by the compiled core (numerics
     excepted)."""
@@ -91,12 +98,13 @@ class ElpasT(NamedTuple):
     drive: DriveT
     cone: ConeT
     car: CarT
+    effects: EffectsT
 
 
 PARAM_GROUPS: tuple[tuple[str, type], ...] = (("motor", MotorT), ("friction", FrictionT), ("drive", DriveT),
-                                              ("cone", ConeT), ("car", CarT))
+                                              ("cone", ConeT), ("car", CarT), ("effects", EffectsT))
 """The packed groups in column order, with their tuple classes (whose fields give the columns' order)."""
-N_PARAM_COLS = sum(len(cls._fields) for _, cls in PARAM_GROUPS)  # 33
+N_PARAM_COLS = sum(len(cls._fields) for _, cls in PARAM_GROUPS)  # 35
 
 
 @register_jitable
@@ -107,7 +115,8 @@ def matrix_row_params(P: np.ndarray, i: int) -> ElpasT:
                   FrictionT(r[8], r[9], r[10], r[11], r[12], r[13]),
                   DriveT(r[14], r[15], r[16], r[17]),
                   ConeT(r[18], r[19], r[20], r[21], r[22], r[23], r[24], r[25]),
-                  CarT(r[26], r[27], r[28], r[29], r[30], r[31], r[32]))
+                  CarT(r[26], r[27], r[28], r[29], r[30], r[31], r[32]),
+                  EffectsT(r[33], r[34]))
 
 
 def params_matrix(p: ElpasParams, n: int) -> np.ndarray:

@@ -148,6 +148,30 @@ class QuarterCarParams(ParameterSet):
 
 
 @dataclasses.dataclass(frozen=True)
+class ElpasEffects(ParameterSet):
+    """Effects the nominal eLPAS lacks, run by the compiled core when their parameters are nonzero (all zero, the
+    default, is the nominal model bit for bit).
+
+    Arm hysteresis (Dahl, a stateful effect): a moment ``-h`` on the arm about gamma with
+    ``dh/dt = (M_h omega - |omega| h) / phi_h`` (``omega = dgamma/dt``), i.e. Dahl's law
+    ``sigma_h (omega - |omega| h / M_h)`` with ``sigma_h = M_h / phi_h``: a loop of half-height ``M_h`` whose
+    branches saturate over the presliding angle ``phi_h``; a candidate cause of the hysteresis the paper sees as
+    gamma -> 90 deg (wishbone bending).  Its state ``h`` is an extra state column of the core
+    (:data:`~vsa_gym.devices.elpas.layout.EFFECT_STATE`), present when ``M_h > 0`` in some row.  It stores
+    ``h^2 phi_h / (2 M_h)`` (in :func:`~vsa_gym.devices.elpas.model.stored_energy`) and dissipates
+    ``|omega| h^2 / M_h >= 0`` (booked in the friction channel).  Keep ``|omega| h_sub / phi_h`` below 2.7
+    (RK4's stability on the substep ``h_sub``).
+    """
+
+    M_h: float = param(0.0, symbol="M_h", unit="N m", source="identification effect", tag="proposed", lower=0.0,
+                       doc="arm hysteresis (Dahl) about gamma: loop half-height (0: absent, no state column)")
+    phi_h: float = param(0.01, symbol="phi_h", unit="rad", source="assumed presliding angle (M_h / sigma_h = "
+                         "20 N m / 2000 N m/rad, the former DahlHysteresis extension's defaults)", tag="proposed",
+                         lower=0.0, strict_lower=True,
+                         doc="arm hysteresis (Dahl): presliding angle M_h / sigma_h over which a branch saturates")
+
+
+@dataclasses.dataclass(frozen=True)
 class NumericsParams(ParameterSet):
     """Integration settings (not physics)."""
 
@@ -167,13 +191,14 @@ class ElpasParams(ParameterSet):
     drive: DriveParams = dataclasses.field(default_factory=DriveParams)
     cone: ConeGeometry = dataclasses.field(default_factory=ConeGeometry)
     car: QuarterCarParams = dataclasses.field(default_factory=QuarterCarParams)
+    effects: ElpasEffects = dataclasses.field(default_factory=ElpasEffects)
     numerics: NumericsParams = dataclasses.field(default_factory=NumericsParams)
 
     def __post_init__(self) -> None:
         super().__post_init__()
         sizes = {
             name: getattr(self, name).batch_size
-            for name in ("motor", "friction", "drive", "cone", "car")
+            for name in ("motor", "friction", "drive", "cone", "car", "effects")
         }
         batched = {k: v for k, v in sizes.items() if v is not None}
         if len(set(batched.values())) > 1:

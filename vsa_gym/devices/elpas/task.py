@@ -63,7 +63,7 @@ PARALLEL_MIN_ROWS = 64  # rows from which the compiled steps run their row loop 
 
 def stack_elpas(rows: list[ElpasParams], numerics: NumericsParams) -> ElpasParams:
     """One batched :class:`ElpasParams` from per-row sets (numerics stay scalar)."""
-    groups = ("motor", "friction", "drive", "cone", "car")
+    groups = ("motor", "friction", "drive", "cone", "car", "effects")
     kw = {g: type(getattr(rows[0], g)).stack([getattr(r, g) for r in rows]) for g in groups}
     return ElpasParams(**kw, numerics=numerics)
 
@@ -119,7 +119,11 @@ class ElpasTask(CompiledStepTask):
         self.motor_encoder = ElpasMotorEncoder()
         self.alpha_encoder = ElpasAlphaEncoder()
         n_ = self.n
-        width = em.N_VEHICLE if self.vehicle else em.N_RIG
+        # the core's state: the base columns, plus the effect states (arm hysteresis) when the parameters, or the
+        # domain randomisation of one of their switches, can turn them on (rows with the effect off keep h = 0)
+        width = (em.N_VEHICLE if self.vehicle else em.N_RIG) + em.effect_state_columns(base)
+        if self.randomization is not None and any(k in em.EFFECT_STATE_SWITCHES for k in self.randomization.ranges):
+            width = max(width, em.effect_column(self.vehicle) + len(em.EFFECT_STATES))
         self.s["x"] = np.zeros((n_, width))
         # the drive's per-row bookkeeping in one array (the compiled steps take it as one argument); the named
         # entries are views of its columns, so they must be written in place, never rebound
@@ -172,6 +176,13 @@ class ElpasTask(CompiledStepTask):
         for i in rows:
             self.row_params[int(i)] = self.randomization.sample(self.base_rows[int(i)], self.rngs[int(i)])
         self._build_params()
+
+    def _set_initial_state(self, i: int, x_row: np.ndarray) -> None:
+        """Row ``i``'s state from its own parameters' initial state; effect states it lacks (its parameters have
+        the effect off while another row's have it on) are zero."""
+        m = x_row.shape[0]
+        self.s["x"][i, :m] = x_row
+        self.s["x"][i, m:] = 0.0
 
     def _col(self, value: Any) -> np.ndarray:
         """A parameter (float or ``(n,)``) as an ``(n,)`` array, memoised per parameter set (not rebuilt every step)."""
