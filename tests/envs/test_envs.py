@@ -262,6 +262,29 @@ def test_domain_randomization_and_params_plug_in() -> None:
 
 
 
+def _check_randomised_effect_column(env_id: str, m_h: tuple[float, float], column: int) -> None:
+    """A randomised stateful effect (``effects.M_h``): the vector env carries its state column, which moves,
+    and equals single envs of the same seeds step by step; randomised to (0, 0) the column stays exactly 0."""
+    dr = {"effects.M_h": m_h}
+    venv = gym.make_vec(env_id, num_envs=3, domain_randomization=dr)
+    venv.reset(seed=7)
+    acts = _actions(env_id, 40, seed=5, n=3)
+    v_obs = [venv.step(acts[k])[0] for k in range(40)]
+    x = venv.unwrapped.task.s["x"]
+    assert x.shape == (3, column + 1) and np.all(np.abs(x[:, column]) > 0.0)
+    for i in range(3):
+        env = gym.make(env_id, domain_randomization=dr)
+        env.reset(seed=7 + i)
+        for k in range(40):
+            o = env.step(acts[k, i])[0]
+            np.testing.assert_allclose(o, v_obs[k][i], rtol=1e-12, atol=1e-12)
+    off = gym.make(env_id, domain_randomization={"effects.M_h": (0.0, 0.0)})
+    off.reset(seed=0)
+    for a in _actions(env_id, 20, seed=1):
+        off.step(a)
+    assert off.unwrapped.task.s["x"].shape == (1, column + 1) and off.unwrapped.task.s["x"][0, column] == 0.0
+
+
 def test_spring_hysteresis_state_column_in_the_vsaut2_envs() -> None:
     """Spring hysteresis on (params, or randomised over its switch ``effects.M_h``): the core state of every row has
     the hysteresis column; rows drawn with ``M_h = 0`` keep it at exactly 0; a vector env equals single envs."""
@@ -274,24 +297,7 @@ def test_spring_hysteresis_state_column_in_the_vsaut2_envs() -> None:
         env.step(a)
     x = env.unwrapped.task.s["x"]
     assert x.shape == (1, 11) and 0.0 < abs(x[0, 10]) <= 0.03
-    dr = {"effects.M_h": (0.0, 0.05)}
-    venv = gym.make_vec("vsa_gym/VsaUT2-PositionStiffness-v0", num_envs=3, domain_randomization=dr)
-    venv.reset(seed=7)
-    acts = _actions("vsa_gym/VsaUT2-PositionStiffness-v0", 40, seed=5, n=3)
-    v_obs = [venv.step(acts[k])[0] for k in range(40)]
-    task = venv.unwrapped.task
-    assert task.s["x"].shape == (3, 11) and np.all(np.abs(task.s["x"][:, 10]) > 0.0)
-    for i in range(3):
-        env = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", domain_randomization=dr)
-        env.reset(seed=7 + i)
-        for k in range(40):
-            o = env.step(acts[k, i])[0]
-            np.testing.assert_allclose(o, v_obs[k][i], rtol=1e-12, atol=1e-12)
-    off = gym.make("vsa_gym/VsaUT2-PositionStiffness-v0", domain_randomization={"effects.M_h": (0.0, 0.0)})
-    off.reset(seed=0)
-    for a in _actions("vsa_gym/VsaUT2-PositionStiffness-v0", 20, seed=1):
-        off.step(a)
-    assert off.unwrapped.task.s["x"].shape == (1, 11) and off.unwrapped.task.s["x"][0, 10] == 0.0
+    _check_randomised_effect_column("vsa_gym/VsaUT2-PositionStiffness-v0", (0.0, 0.05), column=10)
 
 
 def test_current_mode_runs_and_differs_from_voltage_mode() -> None:
@@ -497,21 +503,4 @@ def test_arm_hysteresis_state_column_in_the_elpas_envs() -> None:
         np.testing.assert_array_equal(task.s["x"], x1)
         assert info["energy_el"] == e[0, em.P_EL]
     assert 0.0 < abs(task.s["x"][0, em.N_RIG]) <= 20.0
-    dr = {"effects.M_h": (0.0, 30.0)}
-    venv = gym.make_vec("vsa_gym/ELPAS-QuarterCar-v0", num_envs=3, domain_randomization=dr)
-    venv.reset(seed=7)
-    acts = _actions("vsa_gym/ELPAS-QuarterCar-v0", 40, seed=5, n=3)
-    v_obs = [venv.step(acts[k])[0] for k in range(40)]
-    vt = venv.unwrapped.task
-    assert vt.s["x"].shape == (3, em.N_VEHICLE + 1) and np.all(np.abs(vt.s["x"][:, em.N_VEHICLE]) > 0.0)
-    for i in range(3):
-        env = gym.make("vsa_gym/ELPAS-QuarterCar-v0", domain_randomization=dr)
-        env.reset(seed=7 + i)
-        for k in range(40):
-            o = env.step(acts[k, i])[0]
-            np.testing.assert_allclose(o, v_obs[k][i], rtol=1e-12, atol=1e-12)
-    off = gym.make("vsa_gym/ELPAS-QuarterCar-v0", domain_randomization={"effects.M_h": (0.0, 0.0)})
-    off.reset(seed=0)
-    for a in _actions("vsa_gym/ELPAS-QuarterCar-v0", 20, seed=1):
-        off.step(a)
-    assert off.unwrapped.task.s["x"].shape == (1, em.N_VEHICLE + 1) and off.unwrapped.task.s["x"][0, -1] == 0.0
+    _check_randomised_effect_column("vsa_gym/ELPAS-QuarterCar-v0", (0.0, 30.0), column=em.N_VEHICLE)
