@@ -152,8 +152,12 @@ class IdentificationResult:
             v = e["parameters"][main.name]
             lo, hi = e["ci"][main.name]
             unit = f" {main.unit}" if main.unit and main.unit != "-" else ""
+            # a shape parameter the data asked to free (held at its default otherwise) is part of the cause
+            shapes = "".join(f"; {p.name} = {e['parameters'][p.name]:.3g}"
+                             f"{f' {p.unit}' if p.unit and p.unit != '-' else ''} (freed; held at {p.typical:.3g})"
+                             for p in spec.params if p.optional and p.name in e["parameters"])
             lines.append(f"{spec.description[0].upper()}{spec.description[1:]} {spec.location}: {main.name} = "
-                         f"{v:.4g}{unit} (95 % CI {lo:.4g}–{hi:.4g})")
+                         f"{v:.4g}{unit} (95 % CI {lo:.4g}–{hi:.4g}){shapes}")
         lines += amb
         lines.append(f"{100 * self.unexplained:.2g} % of the nominal validation residual variance remains "
                      "unexplained.")
