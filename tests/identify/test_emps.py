@@ -31,11 +31,13 @@ def test_emps_plateau_friction_opposes_motion_on_both_records():
     from benchmarks.real_records import SPEED_BANDS, emps_plateau_friction
     from vsa_gym.identify.record import SHIPPED_DIR, load_record
 
-    rows = emps_plateau_friction(load_record(SHIPPED_DIR / "emps" / "emps_train.csv"),
-                                 load_record(SHIPPED_DIR / "emps" / "emps_test.csv"))
-    assert len(rows) == 2 * len(SPEED_BANDS)
-    for r in rows:
-        assert r["samples"] > 1000
+    every = emps_plateau_friction(load_record(SHIPPED_DIR / "emps" / "emps_train.csv"),
+                                  load_record(SHIPPED_DIR / "emps" / "emps_test.csv"))
+    rows = [r for r in every if "subset" not in r]  # the speed bands; then pulse on/off and laps at top speed
+    subsets = [r for r in every if "subset" in r]
+    assert len(rows) == 2 * len(SPEED_BANDS) and len(subsets) == 2 * (2 + 4)
+    for r in every:
+        assert r["samples"] > 500  # a speed band over four laps > 2000, one lap at top speed > 800
         for f in (r["force_train_N"], r["force_test_N"]):
             assert f * r["speed_m_s"] > 0
     for sign in (1, -1):
