@@ -81,32 +81,30 @@ def emps_plateau_friction(train: Record, test: Record) -> list[dict[str, float]]
                          "force_test_N": fte, "change_N": fte - ftr, "change_%": 100 * (fte - ftr) / abs(ftr)})
     fast = steady & (np.abs(v_tr) > SPEED_BANDS[-1][0])
     # with the pulses on and off (test record), and lap by lap (the reference repeats four times)
-    for label, m in (("pulse on", pulse > 0), ("pulse off", pulse == 0)):
+    lap = len(v_tr) // 4
+    subsets = [("pulse on", pulse > 0), ("pulse off", pulse == 0)]
+    subsets += [(f"lap {k + 1}", (np.arange(len(v_tr)) // lap) == k) for k in range(4)]
+    for label, m in subsets:
         for sign in (1, -1):
             mm = fast & m & (sign * v_tr > 0)
             rows.append({"speed_m_s": float(v_tr[mm].mean()), "samples": int(mm.sum()), "subset": label,
                          "force_train_N": float(f_tr[mm].mean()), "force_test_N": float(f_te[mm].mean()),
                          "change_N": float((f_te[mm] - f_tr[mm]).mean()),
                          "change_%": float(100 * (f_te[mm] - f_tr[mm]).mean() / abs(f_tr[mm].mean()))})
-    lap = len(v_tr) // 4
-    for k in range(4):
-        m = np.zeros(len(v_tr), bool)
-        m[k * lap:(k + 1) * lap] = True
-        for sign in (1, -1):
-            mm = fast & m & (sign * v_tr > 0)
-            rows.append({"speed_m_s": float(v_tr[mm].mean()), "samples": int(mm.sum()), "subset": f"lap {k + 1}",
-                         "force_train_N": float(f_tr[mm].mean()), "force_test_N": float(f_te[mm].mean()),
-                         "change_N": float((f_te[mm] - f_tr[mm]).mean()),
-                         "change_%": float(100 * (f_te[mm] - f_tr[mm]).mean() / abs(f_tr[mm].mean()))})
     return rows
+
+
+def _timed_fit(train: Record, test: Record):
+    """The fit ``vsa-gym identify`` runs, with its wall and CPU seconds."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = Identifier().fit(train, test).result_
+    return res, {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
 
 
 def run_emps() -> dict:
     train = load_record(SHIPPED_DIR / "emps" / "emps_train.csv")
     test = load_record(SHIPPED_DIR / "emps" / "emps_test.csv")
-    t0, c0 = time.perf_counter(), time.process_time()
-    res = Identifier().fit(train, test).result_
-    cost = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
+    res, cost = _timed_fit(train, test)
     scores = {"test": _rms_on(res, test), "train": _rms_on(res, train)}
     # the train record's effects offered again, fitted on the test record itself: the floor of that structure
     own = Identifier(candidates=[e["name"] for e in res.effects]).fit(test).result_
@@ -121,9 +119,7 @@ def run_emps() -> dict:
 def run_ced() -> dict:
     train = load_record(SHIPPED_DIR / "ced" / "ced_train.csv")
     test2 = load_record(SHIPPED_DIR / "ced" / "ced_test_2.csv")
-    t0, c0 = time.perf_counter(), time.process_time()
-    res = Identifier().fit(train, test2).result_
-    cost = {"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0}
+    res, cost = _timed_fit(train, test2)
     scores = {i: ced_test_rms(res, SHIPPED_DIR / "ced" / f"ced_test_{i}.csv") for i in (1, 2)}
     return {"statements": res.statements(), "effects": [e["name"] for e in res.effects], "identify_seconds": cost,
             "params": res.final.theta(), "rms": scores}
