@@ -266,3 +266,17 @@ class SchedulePolicy:
         self.k += 1
         a = self.actions[seg] if seg < len(self.actions) else np.zeros(2)
         return np.repeat(a[None, :], n, axis=0).astype(np.float32)
+
+
+SCHEDULE_LABELS = {"fixed_stiffness": "(a) fixed stiffness, bang-bang", "optimal_control": "(b) optimal control"}
+"""Keys of the throw-baseline record (``python -m benchmarks.throw_baselines`` -> ``docs/throw_baselines.json``)
+and the names the comparison tables give them."""
+
+
+def schedule_factory(entry: Mapping[str, Any]) -> tuple[Any, dict[str, Any]]:
+    """``(policy_factory, env_kwargs)`` that replay one recorded schedule (an entry of the throw-baseline record or
+    :meth:`ThrowResult.to_dict`) under :func:`baselines.metrics.evaluate_policy`: the schedule's start stiffness is
+    an environment argument (``initial_q1_fraction``), chosen by the search, the agents start at the default."""
+    actions, segment_steps = np.asarray(entry["actions"], dtype=np.float64), int(entry["segment_steps"])
+    return (lambda env: SchedulePolicy(actions, segment_steps)), {
+        "initial_q1_fraction": float(entry["initial_q1_fraction"])}

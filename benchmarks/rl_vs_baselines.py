@@ -20,7 +20,8 @@ agent and every baseline with :func:`baselines.metrics.evaluate_policy` on the s
 Baselines (from :mod:`baselines`): the paper's cascade (force tracking), passive hold and
 skyhook through the cascade (quarter car; ``--skyhook-gains`` adds the skyhook at other damping
 gains ``c_sky``, its comfort-energy trade-off), the decoupled controller (vsaUT-II position /
-stiffness) and, everywhere, the zero action.
+stiffness), the throw baselines (a) fixed stiffness and (b) optimal control, replayed from
+``docs/throw_baselines.json`` (``python -m benchmarks.throw_baselines``), and, everywhere, the zero action.
 
 Every return in the table is under the environment's **default** reward: an agent trained with
 other reward weights (``env_kwargs`` of its hyperparameters, e.g. a higher ``w_energy``) is
@@ -47,6 +48,7 @@ from agents.common import METRIC_SEED_BASE, read_json, write_json
 REPO = Path(__file__).resolve().parents[1]
 ENVS = ("vsa_gym/ELPAS-ForceTracking-v0", "vsa_gym/ELPAS-QuarterCar-v0", "vsa_gym/VsaUT2-PositionStiffness-v0",
         "vsa_gym/VsaUT2-Throw-v0")
+THROW_BASELINES = REPO / "docs" / "throw_baselines.json"  # the throw baselines' schedules (benchmarks.throw_baselines)
 MARK_BEGIN = "<!-- rl_vs_baselines:begin -->"
 MARK_END = "<!-- rl_vs_baselines:end -->"
 # columns of the table: (metric key, header, format)
@@ -56,7 +58,7 @@ COLUMNS: dict[str, list[tuple[str, str, str]]] = {
                                     ("tyre_load_rms", "tyre load RMS (-)", "{:.3f}")],
     "vsa_gym/VsaUT2-PositionStiffness-v0": [("position_rms_rad", "position RMS (rad)", "{:.4f}"),
                                             ("log_stiffness_rms", "ln K RMS (-)", "{:.3f}")],
-    "vsa_gym/VsaUT2-Throw-v0": [],
+    "vsa_gym/VsaUT2-Throw-v0": [("return", "release speed = return (rad/s)", "{:.3f}")],
 }
 COMMON = [("energy_J", "energy (J)", "{:.2f}"), ("peak_power_W", "peak power (W)", "{:.0f}"),
           ("violations", "episodes ended by a violation", "{:.2f}"), ("steps", "mean episode steps", "{:.0f}"),
@@ -94,6 +96,14 @@ def baseline_factories(env_id: str, skyhook_gains: Sequence[float] = ()
         from baselines.vsaut2_decoupled import vsaut2_decoupled_factory
 
         out["decoupled"] = (vsaut2_decoupled_factory(), {})
+    elif env_id == "vsa_gym/VsaUT2-Throw-v0":
+        from baselines.vsaut2_throw import SCHEDULE_LABELS, schedule_factory
+
+        record = read_json(THROW_BASELINES, None)
+        if record is None:
+            raise SystemExit(f"{THROW_BASELINES} not found: run python -m benchmarks.throw_baselines first")
+        for key, label in SCHEDULE_LABELS.items():
+            out[f"throw {label} (its own start stiffness)"] = schedule_factory(record[key])
     return out
 
 
@@ -137,7 +147,8 @@ def _cell(values: Sequence[float], fmt: str) -> str:
 
 def table(env_id: str, agents: dict[str, list[dict[str, Any]]], base: dict[str, list[dict[str, Any]]]) -> str:
     """Markdown table of one environment (agents: per-seed rows with ``cpu_min``; baselines: per episode)."""
-    cols = COLUMNS[env_id] + COMMON
+    own = {k for k, _, _ in COLUMNS[env_id]}
+    cols = COLUMNS[env_id] + [c for c in COMMON if c[0] not in own]
     head = "| policy | n | " + " | ".join(h for _, h, _ in cols) + " | CPU min (train) |"
     lines = [head, "|" + "---|" * (len(cols) + 3)]
     for name, rows in base.items():

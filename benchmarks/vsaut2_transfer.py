@@ -22,15 +22,11 @@ from typing import Any
 from agents.common import METRIC_SEED_BASE
 from baselines.metrics import evaluate_policy, zero_policy_factory
 from baselines.vsaut2_decoupled import vsaut2_decoupled_factory
-from baselines.vsaut2_throw import SchedulePolicy
+from baselines.vsaut2_throw import SCHEDULE_LABELS, schedule_factory
 
 PS, THROW = "vsa_gym/VsaUT2-PositionStiffness-v0", "vsa_gym/VsaUT2-Throw-v0"
 SETS = ("nominal", "as_measured")
 THROW_FILE = Path(__file__).resolve().parents[1] / "docs" / "throw_baselines.json"
-
-
-def _schedule(entry: dict[str, Any]) -> Callable[[Any], SchedulePolicy]:
-    return lambda env: SchedulePolicy(entry["actions"], int(entry["segment_steps"]))
 
 
 def policies(retune: bool = True) -> list[tuple[str, str, str, Callable[[Any], Any], dict[str, Any]]]:
@@ -41,17 +37,14 @@ def policies(retune: bool = True) -> list[tuple[str, str, str, Callable[[Any], A
         (PS, "zero action", "-", zero_policy_factory, {}),
     ]
     throw = json.loads(THROW_FILE.read_text())
-    labels = {"fixed_stiffness": "(a) fixed stiffness, bang-bang", "optimal_control": "(b) optimal control"}
-    for key, label in labels.items():
-        e = throw[key]
-        out.append((THROW, f"throw {label}", "nominal", _schedule(e),
-                    {"initial_q1_fraction": float(e["initial_q1_fraction"])}))
+    for key, label in SCHEDULE_LABELS.items():
+        out.append((THROW, f"throw {label}", "nominal", *schedule_factory(throw[key])))
     if retune:
         from baselines.vsaut2_throw import fixed_stiffness_search
 
         r = fixed_stiffness_search(env_kwargs={"params": "as_measured"}).to_dict()
-        out.append((THROW, "throw (a) fixed stiffness, bang-bang, searched again", "as_measured", _schedule(r),
-                    {"initial_q1_fraction": float(r["initial_q1_fraction"])}))
+        out.append((THROW, "throw (a) fixed stiffness, bang-bang, searched again", "as_measured",
+                    *schedule_factory(r)))
     return out
 
 
