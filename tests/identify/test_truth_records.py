@@ -80,3 +80,25 @@ def test_lightly_damped_shaft_is_named_compliance_with_its_damping(tmp_path):
     m_r = ph["m_l"] * ph["m_m"] / (ph["m_l"] + ph["m_m"])
     zeta = planted["c_s"] / (2 * np.sqrt(planted["k_s"] * m_r))
     assert got["zeta"] == pytest.approx(zeta, rel=0.15)
+
+
+def test_closed_loop_sensor_offset_is_judged_on_the_start_transient(tmp_path):
+    """Case 5000 drawn with a sensor offset (a case read while the rule was written): a PD loop on an offset
+    linear scale tracks its reference either way, so only the transient from the declared start position, in
+    the fit part, shows the offset.  The validation part cannot tell the two models apart; the offset is judged
+    on the fit part (``judged_on``) and named within 15 %.  Without the declared start position the record holds
+    no evidence of an offset at all, and nothing is named."""
+    res, truth = _identify(tmp_path, 5000, ("sensor_offset",))
+    assert [e["name"] for e in res["effects"]] == ["sensor_offset"], res["statements"]
+    assert res["effects"][0]["parameters"]["offset"] == pytest.approx(truth["main"]["sensor_offset"], rel=0.15)
+    accepted = [c for c in res["candidates"] if c["name"] == "sensor_offset" and c["accepted"]]
+    assert accepted and accepted[0]["judged_on"] == "fit"
+
+    side = next(p for p in tmp_path.glob("truthsim_*.json") if not p.name.endswith(".truth.json"))  # the sidecar
+    meta = json.loads(side.read_text())
+    del meta["initial_state"]["position"]  # the start is then read from the (offset) sensor itself
+    side.write_text(json.dumps(meta))
+    out = tmp_path / "blind.json"
+    assert main(["identify", str(side.with_suffix(".csv")), "--json", str(out)]) == 0
+    blind = json.loads(out.read_text())
+    assert blind["effects"] == [] and blind["ambiguous"] == [], blind["statements"]

@@ -11,7 +11,10 @@
 3. Accept an effect only if (a) the validation error drops by ``margin``, (b) a further effect
    removes ``min_share_next`` of the misfit above the estimated noise floor, (c) BIC drops,
    (d) the CI of its main parameter excludes "absent" and the parameter is beyond the nominal
-   model's tolerance, (e) no shape parameter is stuck at a bound; every
+   model's tolerance, (e) no shape parameter is stuck at a bound.  Where the validation part cannot tell
+   the candidate from the model before (their replays differ there by less than the noise floor: a closed loop
+   on an offset sensor tracks its reference either way), (a) and (b) are judged on the fit part instead, with
+   the stricter share (:func:`compared`), and the candidate's ``judged_on`` says so; every
    candidate is refitted jointly with what is accepted, look-alikes side by side (ambiguous
    when they validate alike), and earlier effects the new set no longer needs are dropped
    (:mod:`vsa_gym.identify.selection`).  Then look for a further effect (up to ``max_effects``).
@@ -140,7 +143,30 @@ def _fit(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[Para
     y = ad.simulate(theta, 1)[:, 0, :]
     score = float(np.mean([output_metrics(ad.measured[val, j], y[val, j])["nrmse"]
                            for j in range(y.shape[1])]))
-    return FittedModel(effects, list(keys), list(specs), p, ci, sse, N, score, at_bound, rho)
+    fit_score = float(np.mean([output_metrics(ad.measured[masks["fit"], j], y[masks["fit"], j])["nrmse"]
+                               for j in range(y.shape[1])]))
+    sd_val = np.array([float(np.std(ad.measured[val, j])) or 1.0 for j in range(y.shape[1])])
+    return FittedModel(effects, list(keys), list(specs), p, ci, sse, N, score, at_bound, rho, fit_score,
+                       y[val] / sd_val)
+
+
+def validation_blind(a: FittedModel, b: FittedModel, floor: float) -> bool:
+    """Whether the validation part cannot tell models ``a`` and ``b`` apart: their replays there differ by less
+    than the noise floor (mean over the outputs of the RMS difference, in units of the measured std, like
+    :attr:`FittedModel.val_score`).  A closed loop that acts on an offset sensor tracks its reference either
+    way; only the transient from the known start position shows the offset, and it lies in the fit part."""
+    if a.val_pred is None or b.val_pred is None:
+        return False
+    diff = float(np.mean(np.sqrt(np.mean((a.val_pred - b.val_pred) ** 2, axis=0))))
+    return diff < floor
+
+
+def compared(a: FittedModel, b: FittedModel, floor: float) -> tuple[float, float, str]:
+    """The scores on which model ``a`` is judged against ``b``: ``(a's, b's, part)``, on the validation part
+    unless it cannot tell them apart (:func:`validation_blind`), then on the fit part."""
+    if validation_blind(a, b, floor):
+        return a.fit_score, b.fit_score, "fit"
+    return a.val_score, b.val_score, "validation"
 
 
 def without_effect(fm: FittedModel, name: str) -> FittedModel:
@@ -206,6 +232,7 @@ class Identifier:
         nominal = full_nominal = self._nominal(ad, masks)
         mode = f"{getattr(ad, 'replay', 'open_loop').replace('_', '-')} replay of the whole record"
         floor = self._floor(ad, masks["validation"])
+        floors = {"validation": floor, "fit": self._floor(ad, masks["fit"])}
         forced = self.shooting not in ("auto", "off")
         if forced and not ad.can_shoot():
             raise ValueError(f"shooting={self.shooting!r}: this record's replay has no multiple shooting (needs an "
@@ -214,7 +241,7 @@ class Identifier:
         ambiguous: list[Ambiguity] = []
         current = nominal
         if not forced:
-            current, cands, ambiguous = self._select(ad, nominal, masks, floor)
+            current, cands, ambiguous = self._select(ad, nominal, masks, floors)
         runaway = nominal.val_score > RUNAWAY_NRMSE and current.val_score > RUNAWAY_NRMSE
         if forced or (self.shooting == "auto" and runaway and ad.can_shoot()):
             # the full replay ran away and no effect brought it back: select on windows started from the
@@ -227,7 +254,7 @@ class Identifier:
                        f"(the full open-loop replay ran away: validation NRMSE {nominal.val_score:.3g} nominal, "
                        f"{current.val_score:.3g} with the effects it found)"))
             nominal = self._nominal(ad, masks)
-            current, more, ambiguous = self._select(ad, nominal, masks, floor)
+            current, more, ambiguous = self._select(ad, nominal, masks, floors)
             cands += more
             # where the selected model no longer runs away, its parameters are refitted by full simulation
             # error and the held-out part is scored by full replay
@@ -246,7 +273,7 @@ class Identifier:
         return self
 
     def _select(self, ad: Adapter, nominal: FittedModel, masks: dict[str, np.ndarray],
-                floor: float) -> tuple[FittedModel, list[Candidate], list[Ambiguity]]:
+                floors: dict[str, float]) -> tuple[FittedModel, list[Candidate], list[Ambiguity]]:
         """Forward selection with joint refits, the significance rules, look-alike ambiguity and pruning."""
         seen = ad.observable_effects()
         names = [c for c in (self.candidates or seen) if c in seen]
@@ -267,7 +294,7 @@ class Identifier:
                     cand.reason = "not fitted (low rank)"
                     continue
                 fm = self._with(ad, current, name, masks)
-                self._judge(ad, cand, fm, current, floor)
+                self._judge(ad, cand, fm, current, floors)
                 fitted.append((fm, cand))
             passing = [(fm, c) for fm, c in fitted if c.accepted]
             if not passing:
@@ -287,13 +314,13 @@ class Identifier:
                     {c.name: dict(c.values) for c in [best, *(c for _, c in alike)]},
                     "; ".join(separating_experiment(best.name, c.name) for _, c in alike)))
                 best.reason = "passes, but a look-alike validates as well (ambiguous)"
-            current = self._prune(ad, best_fm, masks, cands, rnd)
+            current = self._prune(ad, best_fm, masks, cands, rnd, floors["validation"])
             if len(current.effects) > 1:
-                current = self._swap(ad, current, names, masks, cands, rnd)
+                current = self._swap(ad, current, names, masks, cands, rnd, floors["validation"])
         return current, cands, ambiguous
 
     def _swap(self, ad: Adapter, fm: FittedModel, names: list[str], masks: dict[str, np.ndarray],
-              cands: list[Candidate], rnd: int) -> FittedModel:
+              cands: list[Candidate], rnd: int, floor: float) -> FittedModel:
         """Revisit an earlier effect beside the one just accepted: each of its look-alikes replaces it (joint
         refit); the best replacement is kept if it validates better by the margin, or as well (within the
         margin) where the earlier effect's shape now sits at a bound.  An earlier choice was made without the
@@ -302,13 +329,14 @@ class Identifier:
         best: tuple[FittedModel, str, str] | None = None
         for old in fm.effects[:-1]:
             stuck = effect_evidence(ad.effects[old], fm)[1]
-            limit = (1 + self.margin if stuck else 1 - self.margin) * fm.val_score
+            factor = 1 + self.margin if stuck else 1 - self.margin
             reduced = without_effect(fm, old)
             for new in sorted(lookalikes(old) & set(names) - set(fm.effects)):
                 alt = self._with(ad, reduced, new, masks)
                 excludes, at_bound, small = effect_evidence(ad.effects[new], alt)
                 sound = excludes and not at_bound and not small
-                if sound and alt.val_score < limit and (best is None or alt.val_score < best[0].val_score):
+                s_alt, s_fm, _ = compared(alt, fm, floor)
+                if sound and s_alt < factor * s_fm and (best is None or alt.val_score < best[0].val_score):
                     best = (alt, new, old)
         if best is None:
             return fm
@@ -403,22 +431,27 @@ class Identifier:
         sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
         return {k: float(grid[int(np.argmin(sse))])}
 
-    def _judge(self, ad: Adapter, cand: Candidate, fm: FittedModel, current: FittedModel, floor: float) -> None:
+    def _judge(self, ad: Adapter, cand: Candidate, fm: FittedModel, current: FittedModel,
+               floors: dict[str, float]) -> None:
         spec = ad.effects[cand.name]
         cand.fitted = True
         cand.val_score, cand.bic = fm.val_score, fm.bic
         cand.values = {k: fm.param(k)[0] for k in spec.keys if k in fm.keys}
-        cand.share = excess_share(fm.val_score, current.val_score, floor)
+        new, cur, part = compared(fm, current, floors["validation"])
+        cand.judged_on = part
+        cand.share = excess_share(new, cur, floors[part])
         main = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main]
         cand.ci_excludes_absent, cand.at_bound, small = effect_evidence(spec, fm)
         reasons = []
-        if not fm.val_score < (1 - self.margin) * current.val_score:
-            reasons.append(f"validation error {fm.val_score:.4g} vs {current.val_score:.4g} "
-                           f"(needs -{100 * self.margin:.0f} %)")
-        need = self.min_share if not current.effects else self.min_share_next
+        if not new < (1 - self.margin) * cur:
+            reasons.append(f"{part} error {new:.4g} vs {cur:.4g} (needs -{100 * self.margin:.0f} %)")
+        # judged on the fit part (the validation part cannot see it), an effect must remove most of the misfit
+        # above the noise floor even as the first one: the strict share stands in for the missing validation
+        need = self.min_share if not current.effects and part == "validation" else self.min_share_next
         if cand.share < need:
             reasons.append(f"removes {100 * cand.share:.0f} % of the misfit above the noise floor "
                            f"(needs {100 * need:.0f} %)")
+        floor = floors["validation"]
         if current.effects and current.val_score < self.floor_factor * floor:
             reasons.append(f"the model is already within {self.floor_factor:g}x the noise floor "
                            f"({current.val_score:.3g} vs {floor:.3g})")
@@ -437,17 +470,21 @@ class Identifier:
                            f"{', '.join(current.effects)} (structure detail, not a further effect)")
         cand.accepted = not reasons
         cand.reason = "; ".join(reasons) if reasons else "passes all criteria"
+        if part == "fit":
+            cand.reason += (" (judged on the fit part: on the validation part its replay differs from the model "
+                            "before by less than the noise floor, so only the fit part holds its evidence)")
 
     def _prune(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray], cands: list[Candidate],
-               rnd: int) -> FittedModel:
+               rnd: int, floor: float) -> FittedModel:
         """Drop an earlier effect that the newly accepted set no longer needs (joint refit without it)."""
         for name in fm.effects[:-1]:
             base = without_effect(fm, name)
             reduced = _fit(ad, {}, base.keys, base.specs, base.theta(), masks, base.effects, self.max_nfev)
-            if reduced.val_score <= (1 + self.margin) * fm.val_score:
+            s_red, s_fm, part = compared(reduced, fm, floor)
+            if s_red <= (1 + self.margin) * s_fm:
                 cands.append(Candidate(rnd, name, float("nan"), True, reduced.val_score, reduced.bic,
-                                       reason=f"dropped: not needed beside {fm.effects[-1]} (validation "
-                                              f"{reduced.val_score:.4g} without it vs {fm.val_score:.4g})"))
+                                       reason=f"dropped: not needed beside {fm.effects[-1]} ({part} "
+                                              f"{s_red:.4g} without it vs {s_fm:.4g})"))
                 return reduced
         return fm
 
@@ -562,6 +599,6 @@ def identify(data: str, *, max_effects: int = 2, replay: str | None = None, cand
     return est.result_
 
 
-__all__ = ["Candidate", "EffectSpec", "FittedModel", "IdentificationResult", "Identifier", "effect_evidence",
-           "identify",
+__all__ = ["Candidate", "EffectSpec", "FittedModel", "IdentificationResult", "Identifier", "compared",
+           "effect_evidence", "identify", "validation_blind",
            "output_metrics", "residual_tests", "without_effect"]

@@ -67,6 +67,9 @@ class FittedModel:
     val_score: float  # mean over outputs of rmse / std on the validation part
     at_bound: list[str]
     rho: float = 0.0
+    fit_score: float = float("nan")  # the same NRMSE on the fit part
+    #: the replay on the validation part, ``(samples, outputs)``, normalised by the measured std there
+    val_pred: np.ndarray | None = dataclasses.field(default=None, repr=False)
 
     @property
     def bic(self) -> float:
@@ -88,7 +91,8 @@ class Candidate:
     fitted: bool = False
     val_score: float = float("nan")
     bic: float = float("nan")
-    share: float = float("nan")  # share of the excess misfit (above the noise floor) it removes on validation
+    share: float = float("nan")  # share of the excess misfit (above the noise floor) it removes (``judged_on``)
+    judged_on: str = "validation"  # "fit" where the validation part cannot tell the candidate from the model before
     ci_excludes_absent: bool = False
     at_bound: bool = False
     accepted: bool = False
