@@ -1,0 +1,170 @@
+"""Simulation-error least squares over a record, and how two fitted models are compared.
+
+:func:`fit_model` fits some parameter keys of an adapter's replay to the fit part of a record (scipy
+``least_squares``, the Jacobian from one batched replay per iteration) and scores the result on the
+validation part; :func:`compared` says on which part two models are judged against each other
+(:func:`validation_blind`).  Used by :class:`vsa_gym.identify.pipeline.Identifier`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from vsa_gym.identify.adapters import Adapter
+from vsa_gym.identify.effects import EffectSpec, ParamSpec
+from vsa_gym.identify.result import FittedModel, acf, output_metrics
+
+
+class SimulationErrorProblem:
+    """Simulation-error least squares over some keys on one adapter."""
+
+    def __init__(self, ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[ParamSpec],
+                 mask: np.ndarray) -> None:
+        self.ad, self.fixed, self.keys, self.specs, self.mask = ad, fixed, keys, specs, mask
+        self.scale = np.array([abs(s.typical - s.absent) or abs(s.typical) or 1.0 for s in specs])
+        self.offs = np.array([s.absent for s in specs])
+        self.sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(ad.measured.shape[1])])
+        self._cache: tuple[bytes, np.ndarray] | None = None
+
+    def to_p(self, x: np.ndarray) -> np.ndarray:
+        return self.offs + self.scale * x
+
+    def to_x(self, p: np.ndarray) -> np.ndarray:
+        return (np.asarray(p) - self.offs) / self.scale
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo = self.to_x(np.array([s.lower for s in self.specs]))
+        hi = self.to_x(np.array([s.upper for s in self.specs]))
+        return lo, hi
+
+    def batch(self, X: np.ndarray) -> np.ndarray:
+        """Residuals (normalised, fit part) of rows ``X`` (n, k) -> (n, N)."""
+        n = X.shape[0]
+        theta = {k: np.full(n, v) for k, v in self.fixed.items()}
+        P = self.offs + self.scale * X
+        for i, k in enumerate(self.keys):
+            theta[k] = P[:, i]
+        y = self.ad.simulate(theta, n)
+        r = (y[self.mask] - self.ad.measured[self.mask][:, None, :]) / self.sd
+        r = np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
+        return np.transpose(r, (1, 0, 2)).reshape(n, -1)
+
+    def fun(self, x: np.ndarray) -> np.ndarray:
+        return self.residuals_and_jacobian(x)[0]
+
+    def jac(self, x: np.ndarray) -> np.ndarray:
+        return self.residuals_and_jacobian(x)[1]
+
+    def residuals_and_jacobian(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        key = x.tobytes()
+        if self._cache is not None and self._cache[0] == key:
+            return self._cache[1]  # type: ignore[return-value]
+        lo, hi = self.bounds()
+        h = 1e-3 * np.maximum(1.0, np.abs(x))
+        step = np.where(x + h > hi, -h, h)
+        X = np.vstack([x, x + np.diag(step)])
+        R = self.batch(X)
+        J = ((R[1:] - R[0]) / step[:, None]).T
+        out = (R[0], J)
+        self._cache = (key, out)  # type: ignore[assignment]
+        return out
+
+
+def fit_model(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[ParamSpec], init: dict[str, float],
+         masks: dict[str, np.ndarray], effects: tuple[str, ...], max_nfev: int) -> FittedModel:
+    prob = SimulationErrorProblem(ad, fixed, keys, specs, masks["fit"])
+    lo, hi = prob.bounds()
+    x0 = np.clip(prob.to_x(np.array([init[k] for k in keys])), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+    if keys:
+        sol = least_squares(prob.fun, x0, jac=prob.jac, bounds=(lo, hi), method="trf", max_nfev=max_nfev,
+                            x_scale=1.0, xtol=1e-8, ftol=1e-10)
+        x = sol.x
+        r, J = prob.residuals_and_jacobian(x)
+    else:
+        x = np.zeros(0)
+        r = prob.batch(np.zeros((1, 0)))[0]
+        J = np.zeros((r.size, 0))
+    p = prob.to_p(x)
+    sse = float(np.dot(r, r))
+    N = r.size
+    # effective sample size from the lag-1 autocorrelation of the residual
+    rho = float(np.clip(acf(r, 1)[0], 0.0, 0.999)) if N > 2 else 0.0
+    infl = (1 + rho) / (1 - rho)
+    ci = np.zeros((len(keys), 2))
+    at_bound = [k for k, xi, a, b in zip(keys, x, lo, hi, strict=True) if min(xi - a, b - xi) < 1e-3 * (b - a)]
+    if keys:
+        # a parameter held at a bound is an active constraint, not a free direction: the covariance is that
+        # of the free parameters (a shape exponent at its limit does not widen the main parameter's CI)
+        free = np.array([k not in at_bound for k in keys])
+        s2 = sse / max(N - int(free.sum()), 1)
+        se = np.zeros(len(keys))
+        try:
+            cov = np.linalg.pinv(J[:, free].T @ J[:, free]) * s2 * infl
+            se[free] = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        except np.linalg.LinAlgError:
+            se[free] = np.inf
+        se *= prob.scale
+        ci = np.stack([p - 1.96 * se, p + 1.96 * se], axis=1)
+    val = masks.get("validation", masks["fit"])
+    theta = {**{k: np.array([v]) for k, v in fixed.items()}, **{k: np.array([v]) for k, v in zip(keys, p,
+                                                                                                  strict=True)}}
+    y = ad.simulate(theta, 1)[:, 0, :]
+    score = float(np.mean([output_metrics(ad.measured[val, j], y[val, j])["nrmse"]
+                           for j in range(y.shape[1])]))
+    fit_score = float(np.mean([output_metrics(ad.measured[masks["fit"], j], y[masks["fit"], j])["nrmse"]
+                               for j in range(y.shape[1])]))
+    sd_val = np.array([float(np.std(ad.measured[val, j])) or 1.0 for j in range(y.shape[1])])
+    return FittedModel(effects, list(keys), list(specs), p, ci, sse, N, score, at_bound, rho, fit_score,
+                       y[val] / sd_val)
+
+
+def validation_blind(a: FittedModel, b: FittedModel, floor: float) -> bool:
+    """Whether the validation part cannot tell models ``a`` and ``b`` apart: their replays there differ by less
+    than the noise floor (mean over the outputs of the RMS difference, in units of the measured std, like
+    :attr:`FittedModel.val_score`).  A closed loop that acts on an offset sensor tracks its reference either
+    way; only the transient from the known start position shows the offset, and it lies in the fit part."""
+    if a.val_pred is None or b.val_pred is None:
+        return False
+    diff = float(np.mean(np.sqrt(np.mean((a.val_pred - b.val_pred) ** 2, axis=0))))
+    return diff < floor
+
+
+def compared(a: FittedModel, b: FittedModel, floor: float) -> tuple[float, float, str]:
+    """The scores on which model ``a`` is judged against ``b``: ``(a's, b's, part)``, on the validation part
+    unless it cannot tell them apart (:func:`validation_blind`), then on the fit part."""
+    if validation_blind(a, b, floor):
+        return a.fit_score, b.fit_score, "fit"
+    return a.val_score, b.val_score, "validation"
+
+
+def without_effect(fm: FittedModel, name: str) -> FittedModel:
+    """``fm`` with effect ``name`` and its parameters taken out (not refitted; scores are ``fm``'s)."""
+    keep = [i for i, k in enumerate(fm.keys) if not k.startswith(f"{name}.")]
+    return dataclasses.replace(fm, effects=tuple(e for e in fm.effects if e != name),
+                               keys=[fm.keys[i] for i in keep], specs=[fm.specs[i] for i in keep],
+                               values=fm.values[keep], ci=fm.ci[keep],
+                               at_bound=[k for k in fm.at_bound if not k.startswith(f"{name}.")])
+
+
+def effect_evidence(spec: EffectSpec, fm: FittedModel) -> tuple[bool, bool, list[str]]:
+    """What a fit says about one of its effects: whether every main parameter's CI excludes "absent", whether a
+    bound-checked parameter sits at a bound, and the main parameters within the nominal model's tolerance."""
+    main = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main]
+    excludes = all(not (fm.param(k)[1] <= p.absent <= fm.param(k)[2]) for k, p in main)
+    at_bound = any(k in fm.at_bound for k, p in zip(spec.keys, spec.params, strict=True) if p.check_bound)
+    small = [k for k, p in main if abs(fm.param(k)[0] - p.absent) < p.tolerance]
+    return excludes, at_bound, small
+
+
+def lstsq_sse(A: np.ndarray, r: np.ndarray) -> float:
+    if A.shape[1] == 0:
+        return float(np.dot(r, r))
+    coef, *_ = np.linalg.lstsq(A, r, rcond=None)
+    e = r - A @ coef
+    return float(np.dot(e, e))
+
+__all__ = ["SimulationErrorProblem", "compared", "effect_evidence", "fit_model", "lstsq_sse", "validation_blind",
+           "without_effect"]
