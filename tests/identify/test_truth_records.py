@@ -102,3 +102,16 @@ def test_closed_loop_sensor_offset_is_judged_on_the_start_transient(tmp_path):
     assert main(["identify", str(side.with_suffix(".csv")), "--json", str(out)]) == 0
     blind = json.loads(out.read_text())
     assert blind["effects"] == [] and blind["ambiguous"] == [], blind["statements"]
+
+
+def test_backlash_start_in_the_gap_is_fitted_not_named_a_sensor_offset(tmp_path):
+    """Case 13012 (read while the rule was written): the truth's motor starts 0.68 of the half gap off centre, so
+    an open-loop replay that starts it in the middle leaves the load shifted for the whole record, and a sensor
+    offset was named beside the backlash.  The start in the gap is fitted with the gap: the backlash is named
+    alone, its width within 15 % and its start near the truth's."""
+    res, truth = _identify(tmp_path, 13012, ("backlash",))
+    assert [e["name"] for e in res["effects"]] == ["backlash"], res["statements"]
+    got = res["effects"][0]["parameters"]
+    assert got["width"] == pytest.approx(truth["main"]["backlash"], rel=0.15)
+    case = draw_case(13012, ("backlash",))
+    assert got["start"] == pytest.approx(case.gap0 / (0.5 * truth["main"]["backlash"]), abs=0.15)

@@ -256,6 +256,13 @@ class DriveAdapter(Adapter):
             x0[:, 0] = x0[:, 2] = (self.measured[0, 0] - self.measurement[0].bias - offset) / (1.0 + gain)
         if position is not None:
             x0[:, 0] = x0[:, 2] = position
+        elif theta is not None and "backlash.start" in theta:
+            # the motor's place in the gap at the first sample; a start read from a motor encoder is the motor's
+            shift = theta_column(theta, "backlash.start", P.shape[0]) * 0.5 * P[:, drive.PIDX["backlash"]]
+            if self.pos_measured and self.obs[0] == 2:  # the start was read from a motor encoder: the load moves
+                x0[:, 0] -= shift
+            else:
+                x0[:, 2] += shift
         if speed is not None:
             x0[:, 1] = x0[:, 3] = speed
         I = drive.PIDX

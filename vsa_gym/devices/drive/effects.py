@@ -87,9 +87,14 @@ LIBRARY: tuple[Effect, ...] = (
         # damped contact unless freeing them validates better (teeth behind a shaft ring and bounce)
         Param("f_contact", "Hz", 10.0, 300.0, F_CONTACT, F_CONTACT, main=False, check_bound=False, optional=True),
         Param("zeta_contact", "-", 0.02, 1.0, ZETA_CONTACT, ZETA_CONTACT, main=False, check_bound=False,
-              optional=True)),
+              optional=True),
+        # where in the gap the motor sat at the first sample (a share of the half gap, -1..1): a record does not
+        # say, and in an open-loop replay the load position it leads to stays shifted ever after (a sensor offset
+        # stood in for it); fitted with the gap, like the amplifier's start share
+        Param("start", "-", -1.0, 1.0, 0.0, 0.0, main=False, check_bound=False)),
            enters="a dead zone of total width `width` in the transmission between motor and load (one-sided "
-                  "contact of mode f_contact and damping ratio zeta_contact on the reduced mass)",
+                  "contact of mode f_contact and damping ratio zeta_contact on the reduced mass); the motor starts "
+                  "at `start` x width / 2 from the middle of the gap",
            when=lambda a: "backlash" not in a.free,
            synthetic={SYNTHETIC: {"width": (2e-3, 5e-3)}}, source=SOURCE),
     Effect("transmission_compliance", IN_TRANSMISSION, (
