@@ -160,8 +160,12 @@ class IdentificationResult:
             shapes = "".join(f"; {p.name} = {e['parameters'][p.name]:.3g}"
                              f"{f' {p.unit}' if p.unit and p.unit != '-' else ''} (freed; held at {p.typical:.3g})"
                              for p in spec.params if p.optional and p.name in e["parameters"])
+            # an effect accepted on the fit part alone (the validation part could not tell it apart) says so
+            blind = any(c.accepted and c.name == e["name"] and c.judged_on == "fit" for c in self.candidates)
+            where = ("; judged on the fit part: the validation part cannot tell it from the model without it "
+                     "(e.g. an offset seen only in the transient from the declared start)") if blind else ""
             lines.append(f"{spec.description[0].upper()}{spec.description[1:]} {spec.location}: {main.name} = "
-                         f"{v:.4g}{unit} (95 % CI {lo:.4g}–{hi:.4g}){shapes}")
+                         f"{v:.4g}{unit} (95 % CI {lo:.4g}–{hi:.4g}){shapes}{where}")
         lines += amb
         lines.append(f"{100 * self.unexplained:.2g} % of the nominal validation residual variance remains "
                      "unexplained.")
