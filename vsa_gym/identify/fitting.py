@@ -74,7 +74,9 @@ class SimulationErrorProblem:
 
 
 def fit_model(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[ParamSpec], init: dict[str, float],
-         masks: dict[str, np.ndarray], effects: tuple[str, ...], max_nfev: int) -> FittedModel:
+              masks: dict[str, np.ndarray], effects: tuple[str, ...], max_nfev: int) -> FittedModel:
+    """Fit ``keys`` (from ``init``, the others held at ``fixed``) to the fit part by simulation error; the result
+    carries CIs, the validation and fit-part NRMSE and the validation replay."""
     prob = SimulationErrorProblem(ad, fixed, keys, specs, masks["fit"])
     lo, hi = prob.bounds()
     x0 = np.clip(prob.to_x(np.array([init[k] for k in keys])), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
@@ -112,13 +114,14 @@ def fit_model(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list
     theta = {**{k: np.array([v]) for k, v in fixed.items()}, **{k: np.array([v]) for k, v in zip(keys, p,
                                                                                                   strict=True)}}
     y = ad.simulate(theta, 1)[:, 0, :]
-    score = float(np.mean([output_metrics(ad.measured[val, j], y[val, j])["nrmse"]
-                           for j in range(y.shape[1])]))
-    fit_score = float(np.mean([output_metrics(ad.measured[masks["fit"], j], y[masks["fit"], j])["nrmse"]
-                               for j in range(y.shape[1])]))
     sd_val = np.array([float(np.std(ad.measured[val, j])) or 1.0 for j in range(y.shape[1])])
-    return FittedModel(effects, list(keys), list(specs), p, ci, sse, N, score, at_bound, rho, fit_score,
-                       y[val] / sd_val)
+    return FittedModel(effects, list(keys), list(specs), p, ci, sse, N, part_nrmse(ad.measured, y, val), at_bound,
+                       rho, part_nrmse(ad.measured, y, masks["fit"]), y[val] / sd_val)
+
+
+def part_nrmse(measured: np.ndarray, y: np.ndarray, mask: np.ndarray) -> float:
+    """NRMSE of replay ``y`` on one part of the record, the mean over the outputs (:func:`output_metrics`)."""
+    return float(np.mean([output_metrics(measured[mask, j], y[mask, j])["nrmse"] for j in range(y.shape[1])]))
 
 
 def validation_blind(a: FittedModel, b: FittedModel, floor: float) -> bool:
@@ -166,5 +169,5 @@ def lstsq_sse(A: np.ndarray, r: np.ndarray) -> float:
     e = r - A @ coef
     return float(np.dot(e, e))
 
-__all__ = ["SimulationErrorProblem", "compared", "effect_evidence", "fit_model", "lstsq_sse", "validation_blind",
-           "without_effect"]
+__all__ = ["SimulationErrorProblem", "compared", "effect_evidence", "fit_model", "lstsq_sse", "part_nrmse",
+           "validation_blind", "without_effect"]

@@ -58,6 +58,11 @@ SHAPE_GRID = 5
 # ----------------------------------------------------------------------------- estimator
 #: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
 RUNAWAY_NRMSE = 1.0
+def shooting_window(record: Record) -> float:
+    """Length (s) of the multiple-shooting windows of a record: a twentieth of it, 0.2 to 1 s."""
+    return float(np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2, 1.0))
+
+
 #: a full open-loop replay whose selected model still leaves this validation NRMSE drifts: the selection is
 #: repeated on shooting windows (:meth:`Identifier._second_opinion`)
 DRIFT_NRMSE = 0.1
@@ -116,21 +121,16 @@ class Identifier:
         if forced or (self.shooting == "auto" and runaway and ad.can_shoot()):
             # the full replay ran away and no effect brought it back: select on windows started from the
             # measured state (truncated simulation error), where the least squares cannot stall on a drift
-            window = float(self.shooting) if forced else float(np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2,
-                                                                        1.0))
-            ad.set_shooting(window)
+            window = float(self.shooting) if forced else shooting_window(record)
             mode = (f"multiple shooting: windows of {window:.3g} s, each started from the measured state "
                     + ("(requested)" if forced else
                        f"(the full open-loop replay ran away: validation NRMSE {nominal.val_score:.3g} nominal, "
                        f"{current.val_score:.3g} with the effects it found)"))
-            nominal = self._nominal(ad, masks)
-            current, more, ambiguous = self._select(ad, nominal, masks, floors)
+            nominal, current, more, ambiguous = self._select_on_windows(ad, masks, floors, window)
             cands += more
             # where the selected model no longer runs away, its parameters are refitted by full simulation
             # error and the held-out part is scored by full replay
-            ad.set_shooting(None)
-            refit = fit_model(ad, {}, current.keys, current.specs, current.theta(), masks, current.effects,
-                              self.max_nfev)
+            refit = self._refit(ad, current, masks)
             if refit.val_score <= RUNAWAY_NRMSE:
                 mode += ("; the selected model was refitted by full simulation error and the held-out part is "
                          "scored by full replay")
@@ -158,15 +158,11 @@ class Identifier:
         is refitted by full simulation error and replaces the full-replay choice only where it validates
         better by the margin in the same full replay, so both are judged on one scale.
         """
-        window = float(np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2, 1.0))
-        ad.set_shooting(window)
-        try:
-            shot, more, shot_ambiguous = self._select(ad, self._nominal(ad, masks), masks, floors)
-        finally:
-            ad.set_shooting(None)
+        window = shooting_window(record)
+        _, shot, more, shot_ambiguous = self._select_on_windows(ad, masks, floors, window)
         if not shot.effects:
             return current, cands, ambiguous, mode
-        refit = fit_model(ad, {}, shot.keys, shot.specs, shot.theta(), masks, shot.effects, self.max_nfev)
+        refit = self._refit(ad, shot, masks)
         named = ", ".join(current.effects) or "no effect"
         if not refit.val_score < (1 - self.margin) * current.val_score:
             return current, cands, ambiguous, mode + (
@@ -184,6 +180,21 @@ class Identifier:
             f"{current.val_score:.3g} with {named}), so the effects were selected on windows of {window:.3g} s "
             f"started from the measured state and refitted by full simulation error (validation NRMSE "
             f"{refit.val_score:.3g}); the held-out part is scored by full replay")
+
+    def _select_on_windows(self, ad: Adapter, masks: dict[str, np.ndarray], floors: dict[str, float],
+                           window: float) -> tuple[FittedModel, FittedModel, list[Candidate], list[Ambiguity]]:
+        """The nominal model and the selection on shooting windows of ``window`` s: ``(nominal, selected,
+        candidates, ambiguous)``.  The adapter replays the whole record again afterwards."""
+        ad.set_shooting(window)
+        try:
+            nominal = self._nominal(ad, masks)
+            return (nominal, *self._select(ad, nominal, masks, floors))
+        finally:
+            ad.set_shooting(None)
+
+    def _refit(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray]) -> FittedModel:
+        """``fm``'s parameters refitted from its values on the adapter's current replay."""
+        return fit_model(ad, {}, fm.keys, fm.specs, fm.theta(), masks, fm.effects, self.max_nfev)
 
     def _select(self, ad: Adapter, nominal: FittedModel, masks: dict[str, np.ndarray],
                 floors: dict[str, float]) -> tuple[FittedModel, list[Candidate], list[Ambiguity]]:
@@ -267,7 +278,7 @@ class Identifier:
     def _nominal(self, ad: Adapter, masks: dict[str, np.ndarray]) -> FittedModel:
         keys = [f"base.{b.name}" for b in ad.base]
         return fit_model(ad, {}, keys, list(ad.base), {k: b.absent for k, b in zip(keys, ad.base, strict=True)},
-                    masks, (), self.max_nfev)
+                         masks, (), self.max_nfev)
 
     @staticmethod
     def _floor(ad: Adapter, mask: np.ndarray) -> float:
@@ -284,8 +295,8 @@ class Identifier:
         init = {**current.theta(), **{k: p.typical for k, p in zip(spec.keys, spec.params, strict=True)}}
         init.update(self._start(ad, current, spec, masks["fit"]))
         held = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if not p.optional]
-        fm = fit_model(ad, {}, current.keys + [k for k, _ in held], current.specs + [p for _, p in held], init, masks,
-                  (*current.effects, name), self.max_nfev)
+        fm = fit_model(ad, {}, current.keys + [k for k, _ in held], current.specs + [p for _, p in held], init,
+                       masks, (*current.effects, name), self.max_nfev)
         if len(held) == len(spec.keys):
             return fm
         # the optional shape parameters are freed only where that validates better by the margin; the free fit
@@ -293,7 +304,7 @@ class Identifier:
         # or a contact that rings fits only near its own shape, far from the held default)
         start = {**init, **fm.theta(), **self._shape_start(ad, fm, spec, masks["fit"])}
         free = fit_model(ad, {}, current.keys + list(spec.keys), current.specs + list(spec.params),
-                    start, masks, (*current.effects, name), self.max_nfev)
+                         start, masks, (*current.effects, name), self.max_nfev)
         return free if free.val_score < (1 - self.margin) * fm.val_score else fm
 
     @staticmethod
@@ -392,7 +403,7 @@ class Identifier:
         """Drop an earlier effect that the newly accepted set no longer needs (joint refit without it)."""
         for name in fm.effects[:-1]:
             base = without_effect(fm, name)
-            reduced = fit_model(ad, {}, base.keys, base.specs, base.theta(), masks, base.effects, self.max_nfev)
+            reduced = self._refit(ad, base, masks)
             s_red, s_fm, part = compared(reduced, fm, floor)
             if s_red <= (1 + self.margin) * s_fm:
                 cands.append(Candidate(rnd, name, float("nan"), True, reduced.val_score, reduced.bic,
