@@ -83,7 +83,8 @@ def test_lightly_damped_shaft_is_named_compliance_with_its_damping(tmp_path):
 
 
 def test_closed_loop_sensor_offset_is_judged_on_the_start_transient(tmp_path):
-    """Case 5000 drawn with a sensor offset (a case read while the rule was written): a PD loop on an offset
+    """Case seed 5000 drawn with a sensor offset (``--seed 5 --only sensor_offset``; read while the rule was
+    written): a PD loop on an offset
     linear scale tracks its reference either way, so only the transient from the declared start position, in
     the fit part, shows the offset.  The validation part cannot tell the two models apart; the offset is judged
     on the fit part (``judged_on``) and named within 15 %.  Without the declared start position the record holds
@@ -105,10 +106,10 @@ def test_closed_loop_sensor_offset_is_judged_on_the_start_transient(tmp_path):
 
 
 def test_backlash_start_in_the_gap_is_fitted_not_named_a_sensor_offset(tmp_path):
-    """Case 13012 (read while the rule was written): the truth's motor starts 0.68 of the half gap off centre, so
-    an open-loop replay that starts it in the middle leaves the load shifted for the whole record, and a sensor
-    offset was named beside the backlash.  The start in the gap is fitted with the gap: the backlash is named
-    alone, its width within 15 % and its start near the truth's."""
+    """Case 13012 (the seed-13 set's first backlash draw, read while the rule was written): the truth's motor
+    starts 0.68 of the half gap off centre, so an open-loop replay that starts it in the middle leaves the load
+    shifted for the whole record, and a sensor offset was named beside the backlash.  The start in the gap is
+    fitted with the gap: the backlash is named alone, its width within 15 % and its start near the truth's."""
     res, truth = _identify(tmp_path, 13012, ("backlash",))
     assert [e["name"] for e in res["effects"]] == ["backlash"], res["statements"]
     got = res["effects"][0]["parameters"]

@@ -91,8 +91,9 @@ LIBRARY: tuple[Effect, ...] = (
         # where in the gap the motor sat at the first sample (a share of the half gap, -1..1): a record does not
         # say, and in an open-loop replay the load position it leads to stays shifted ever after (a sensor offset
         # stood in for it); fitted with the gap, like the amplifier's start share.  A start pressed to the bound
-        # is the gap standing in for something else (EMPS: a 22 mm "gap" with the motor held at its edge
-        # validated 2 % better than Coulomb friction), so the bound is checked like a shape parameter's
+        # is the gap standing in for something else (EMPS at commit 85b4fa3, `vsa-gym identify emps`: a 22 mm
+        # "gap" with the motor held at its edge validated 2 % better than Coulomb friction), so the bound is
+        # checked like a shape parameter's
         Param("start", "-", -1.0, 1.0, 0.0, 0.0, main=False)),
            enters="a dead zone of total width `width` in the transmission between motor and load (one-sided "
                   "contact of mode f_contact and damping ratio zeta_contact on the reduced mass); the motor starts "
