@@ -66,6 +66,12 @@ def shooting_window(record: Record) -> float:
 #: a full open-loop replay whose selected model still leaves this validation NRMSE drifts: the selection is
 #: repeated on shooting windows (:meth:`Identifier._second_opinion`)
 DRIFT_NRMSE = 0.1
+#: a selection ending this many times above the validation noise floor is tried again from round one's runner-up
+#: where that validated within RUNNER_UP times the winner's error; the runner-up's branch must validate below
+#: BRANCH_GAIN times the selection's error to replace it (:meth:`Identifier._runner_up`)
+BRANCH_FLOOR = 10.0
+RUNNER_UP = 1.25
+BRANCH_GAIN = 0.5
 
 
 @dataclasses.dataclass
@@ -198,13 +204,24 @@ class Identifier:
 
     def _select(self, ad: Adapter, nominal: FittedModel, masks: dict[str, np.ndarray],
                 floors: dict[str, float]) -> tuple[FittedModel, list[Candidate], list[Ambiguity]]:
-        """Forward selection with joint refits, the significance rules, look-alike ambiguity and pruning."""
+        """Forward selection with joint refits, the significance rules, look-alike ambiguity and pruning, then
+        the round-one runner-up's branch where the selection ends far above the noise floor
+        (:meth:`_runner_up`)."""
         seen = ad.observable_effects()
         names = [c for c in (self.candidates or seen) if c in seen]
-        current = nominal
+        current, cands, ambiguous, first = self._forward(ad, nominal, names, masks, floors, 1)
+        return self._runner_up(ad, current, cands, ambiguous, first, names, masks, floors)
+
+    def _forward(self, ad: Adapter, start: FittedModel, names: list[str], masks: dict[str, np.ndarray],
+                 floors: dict[str, float], first_round: int
+                 ) -> tuple[FittedModel, list[Candidate], list[Ambiguity], list[tuple[FittedModel, Candidate]]]:
+        """Rounds ``first_round .. max_effects`` of forward selection from ``start``: ``(selected, candidates,
+        ambiguous, passing)``, ``passing`` the fitted candidates that passed every rule in the first round."""
+        current = start
         cands: list[Candidate] = []
         ambiguous: list[Ambiguity] = []
-        for rnd in range(1, self.max_effects + 1):
+        first: list[tuple[FittedModel, Candidate]] = []
+        for rnd in range(first_round, self.max_effects + 1):
             remaining = [c for c in names if c not in current.effects]
             if not remaining:
                 break
@@ -221,6 +238,8 @@ class Identifier:
                 self._judge(ad, cand, fm, current, floors)
                 fitted.append((fm, cand))
             passing = [(fm, c) for fm, c in fitted if c.accepted]
+            if rnd == first_round:
+                first = list(passing)
             if not passing:
                 break
             best_fm, best = min(passing, key=lambda p: p[0].val_score)
@@ -241,7 +260,46 @@ class Identifier:
             current = self._prune(ad, best_fm, masks, cands, rnd, floors["validation"])
             if len(current.effects) > 1:
                 current = self._swap(ad, current, names, masks, cands, rnd, floors["validation"])
-        return current, cands, ambiguous
+        return current, cands, ambiguous, first
+
+    def _runner_up(self, ad: Adapter, current: FittedModel, cands: list[Candidate], ambiguous: list[Ambiguity],
+                   first: list[tuple[FittedModel, Candidate]], names: list[str], masks: dict[str, np.ndarray],
+                   floors: dict[str, float]) -> tuple[FittedModel, list[Candidate], list[Ambiguity]]:
+        """Repeat the selection from round one's runner-up where the winner's branch ends far above the noise floor.
+
+        Forward selection commits to the first effect that validates best, and one effect can stand in for two
+        at the first round: on a closed loop, a sensor gain reproduces a mesh loss plus a viscous friction
+        within a few per cent, and no second effect then removes what it leaves.  Where the selected model
+        still validates :data:`BRANCH_FLOOR` times above the noise floor and a passing runner-up of round one
+        validated within :data:`RUNNER_UP` of the winner, the later rounds are run again from the runner-up;
+        that branch's model replaces the selection only if it validates below :data:`BRANCH_GAIN` times the
+        selection's error, on the same part, so a branch wins on the data, not on a tie.
+        """
+        if (self.max_effects < 2 or len(first) < 2 or not current.effects
+                or current.val_score <= BRANCH_FLOOR * floors["validation"]):
+            return current, cands, ambiguous
+        winner = min(first, key=lambda p: p[0].val_score)
+        runners = sorted((p for p in first if p[1] is not winner[1]
+                          and p[0].val_score <= RUNNER_UP * winner[0].val_score), key=lambda p: p[0].val_score)
+        if not runners:
+            return current, cands, ambiguous
+        fm, cand = runners[0]
+        branch, more, branch_ambiguous, _ = self._forward(ad, fm, names, masks, floors, 2)
+        note = (f"the selection from round one's runner-up {cand.name} ({', '.join(branch.effects)}: validation "
+                f"{branch.val_score:.4g}) against {', '.join(current.effects)} ({current.val_score:.4g})")
+        for c in more:
+            c.reason = f"from runner-up {cand.name}: {c.reason}"
+        if not (branch.effects != current.effects and branch.val_score < BRANCH_GAIN * current.val_score):
+            for c in more:
+                c.accepted = False
+            return current, cands + more, ambiguous
+        for c in cands:
+            if c.accepted:
+                c.accepted = False
+                c.reason += f"; replaced by {note}"
+        cand.accepted = True
+        cand.reason = f"round one's runner-up, adopted: {note}"
+        return branch, cands + more, branch_ambiguous
 
     def _swap(self, ad: Adapter, fm: FittedModel, names: list[str], masks: dict[str, np.ndarray],
               cands: list[Candidate], rnd: int, floor: float) -> FittedModel:
