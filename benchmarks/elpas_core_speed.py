@@ -25,19 +25,12 @@ Timed (one thread, ``time.perf_counter``, best of 3 repeats within an interprete
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import subprocess
-import sys
-import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def _best(fn: Callable[[], None], calls: int, repeats: int = 3) -> float:
@@ -136,46 +129,14 @@ def measure() -> dict[str, float]:
     return out
 
 
-def _run_in(checkout: Path, cache: Path | None) -> dict[str, float]:
-    """``measure()`` in a fresh interpreter importing ``checkout``'s ``vsa_gym``."""
-    env = dict(os.environ, PYTHONPATH=str(checkout), NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
-    if cache is not None:
-        env.update(PYTHONPYCACHEPREFIX=str(cache / "pyc"), NUMBA_CACHE_DIR=str(cache / "numba"))
-    code = ("import importlib.util, json; "  # this file by path: ROOT on sys.path would shadow the other vsa_gym
-            f"spec = importlib.util.spec_from_file_location('elpas_core_speed', {str(Path(__file__).resolve())!r}); "
-            "mod = importlib.util.module_from_spec(spec); spec.loader.exec_module(mod); "
-            "print(json.dumps(mod.measure()))")
-    res = subprocess.run([sys.executable, "-c", code], cwd=checkout, env=env, capture_output=True, text=True,
-                         check=True)
-    got = json.loads(res.stdout.strip().splitlines()[-1])
-    if not str(got.pop("_file")).startswith(str(checkout)):
-        raise RuntimeError(f"{checkout}: imported another vsa_gym")
-    return got
-
-
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--against", type=Path, help="the other checkout (timed alternately with this one)")
     ap.add_argument("--rounds", type=int, default=2)
     args = ap.parse_args(argv)
-    if args.against is None:
-        for k, v in _run_in(ROOT, None).items():
-            print(f"{k:24s} {v:12.1f} us")
-        return
-    other = args.against.resolve()
-    best: dict[str, dict[str, float]] = {"before": {}, "after": {}}
-    with tempfile.TemporaryDirectory(prefix="elpas_speed_") as tmp:
-        cache = Path(os.environ.get("ELPAS_SPEED_CACHE", tmp))  # set it to keep the other checkout's compiled cache
-        for r in range(args.rounds):
-            for tag, where, c in (("before", other, cache), ("after", ROOT, None)):
-                got = _run_in(where, c)
-                for k, v in got.items():
-                    best[tag][k] = min(best[tag].get(k, np.inf), v)
-                print(f"round {r + 1}: {tag} done", file=sys.stderr)
-    print(f"{'us per call':24s} {'before':>12s} {'after':>12s} {'before/after':>13s}")
-    for k in best["after"]:
-        b, a = best["before"].get(k, np.nan), best["after"][k]
-        print(f"{k:24s} {b:12.1f} {a:12.1f} {b / a:13.2f}")
+    from benchmarks.checkouts import compare  # here: measure() also runs in checkouts that lack this module
+
+    compare(Path(__file__), args.against, args.rounds, "us per call", cache_env="ELPAS_SPEED_CACHE")
 
 
 if __name__ == "__main__":

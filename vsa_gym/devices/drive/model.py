@@ -159,7 +159,7 @@ class DriveParams(ParameterSet):
         return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _contact(P: np.ndarray) -> tuple[float, float]:
     """Stiffness and damping of the transmission: ``(k_c, c_c)`` if compliant, else the backlash contact's."""
     if P[9] > 0.0:
@@ -170,7 +170,7 @@ def _contact(P: np.ndarray) -> tuple[float, float]:
     return k, c
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _tforce(P: np.ndarray, d: float, dv: float) -> float:
     """Transmission force ``k dz(d) + c dv dz'(d)`` (N) at deflection ``d`` and deflection rate ``dv``."""
     k, c = _contact(P)
@@ -189,13 +189,13 @@ def _tforce(P: np.ndarray, d: float, dv: float) -> float:
     return k * d + c * dv
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _forward(power: float, scale: float) -> float:
     """Share of forward operation (1: the motor drives the load, 0: back-driven) from the mesh power."""
     return 0.5 * (1.0 + np.tanh(power / (scale + 1e-12)))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, out: np.ndarray) -> None:
     m, b, k_u, tau_e = P[0], P[1], P[2], P[3]
     F_c, F_s, v_s, v_eps, F_0 = P[4], P[5], P[6], P[7], P[8]
@@ -213,7 +213,9 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     mm = frac * m
     ml = (1.0 - frac) * m
     d_s = P[20]
-    g_v = F_c + F_s * (np.exp(-(vl / v_s) ** 2) if d_s == 2.0 else np.exp(-abs(vl / v_s) ** d_s))
+    g_v = F_c
+    if F_s != 0.0:
+        g_v += F_s * (np.exp(-(vl / v_s) ** 2) if d_s == 2.0 else np.exp(-abs(vl / v_s) ** d_s))
     x_c = P[19]
     if x_c > 0.0 and F_c + F_s > 0.0:
         # reset-integrator bristle: a stiff spring while stuck (|z| < x_c), the sliding law g(v) beyond
@@ -222,7 +224,7 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
         Ff = min(max(k0 * z, -g_v), g_v) + 2.0 * np.sqrt(k0 * (ml if two_mass else m)) * dz + b * vl
         out[6] = dz
     else:
-        Ff = g_v * np.tanh(vl / v_eps) + b * vl
+        Ff = g_v * np.tanh(vl / v_eps) + b * vl if g_v != 0.0 else b * vl
         out[6] = 0.0
     if F_h > 0.0:
         out[5] = sig * (vl - abs(vl) * h / F_h)
@@ -266,7 +268,7 @@ def point_rhs(ctx: tuple[np.ndarray, float, float, bool], s: np.ndarray, ds: np.
 rk4_row = rk4_row_stepper(point_rhs)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _transmitted(P: np.ndarray, s: np.ndarray, u: float, two_mass: bool) -> float:
     """Force the drive delivers to the load (N), for the ``force`` observable."""
     if two_mass:
@@ -274,7 +276,7 @@ def _transmitted(P: np.ndarray, s: np.ndarray, u: float, two_mass: bool) -> floa
     return s[4] if P[3] > 0.0 else P[2] * u
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _sensed(xs: np.ndarray, k: int, dt: float, gain: float, offset: float, delay: float, bias: float) -> float:
     """The loop's position sensor at sample ``k``: ``(1 + gain) x(t_k - delay) + offset + bias`` from the
     sampled positions ``xs[:k + 1]`` (linear interpolation, held at the first sample before the start)."""
@@ -294,7 +296,7 @@ def _sensed(xs: np.ndarray, k: int, dt: float, gain: float, offset: float, delay
     return (1.0 + gain) * x + offset + bias
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarray, ref: np.ndarray,
                     ff: np.ndarray, ctrl: np.ndarray, sens: np.ndarray, dt: float, n_sub: int) -> np.ndarray:
     """Roll out ``n`` drives over ``T`` samples; returns observables ``(T, n, len(OBS))`` at the sample times.

@@ -1,0 +1,85 @@
+"""Speed of the generic drive's compiled roll-out and of one identification of a truth-simulator record.
+
+    python -m benchmarks.drive_kernel_speed                       (this checkout only)
+    python -m benchmarks.drive_kernel_speed --against DIR [--rounds R]
+
+With ``--against DIR`` (another checkout, e.g. ``git worktree add /tmp/before COMMIT``) both run alternately in
+fresh single-threaded interpreters and the last column is ``time(DIR) / time(this)`` (> 1: this checkout is
+faster; :mod:`benchmarks.checkouts`).  Figures (best of the rounds):
+
+* ``kernel <effect> ns/row-substep``: :func:`vsa_gym.devices.drive.model.simulate` of 6 rows over 6000 samples of
+  2 ms at 8 RK4 substeps, per row and substep (4 right-hand sides), for the nominal drive with a 0.19 ms current
+  loop and with Coulomb friction, a Stribeck curve, a compliant shaft, a backlash, a mesh loss or a Dahl loop;
+* ``identify truth 5040 s`` (``--identify``): ``vsa_gym.identify.pipeline.identify`` of the independent truth
+  simulator's case 5040 (a sensor offset on an open-loop linear motor, 500 Hz, 11.8 s; ``tests.truthsim``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+EFFECTS: dict[str, dict[str, float]] = {
+    "nominal": {},
+    "coulomb": {"F_c": 5.0},
+    "stribeck": {"F_c": 5.0, "F_s": 2.0, "v_s": 0.02},
+    "compliance": {"k_c": 1e5, "c_c": 20.0, "frac_m": 0.3},
+    "backlash": {"backlash": 5e-4, "frac_m": 0.3},
+    "mesh loss": {"eta": 0.8, "frac_m": 0.3},
+    "dahl": {"F_h": 1.0, "sigma_h": 1e4},
+}
+
+
+def measure() -> dict[str, float]:
+    """Time this interpreter's checkout (see the module docstring)."""
+    import vsa_gym
+    from vsa_gym.devices.drive import model as drive
+
+    base = drive.DriveParams(m=9.4, b=2.5, k_u=3.8, tau_e=1.9e-4, v_eps=3e-4).vector(1)
+    n, T, dt, n_sub = 6, 6000, 2e-3, 8
+    u = 2.0 * np.sin(np.arange(T) * dt * 2 * np.pi)
+    out: dict[str, float] = {}
+    for name, values in EFFECTS.items():
+        P = np.repeat(base, n, axis=0)
+        for k, v in values.items():
+            P[:, drive.PIDX[k]] = v
+        drive.simulate(P, u[:10], dt, n_sub=n_sub)  # compile or load the cache
+        best = np.inf
+        for _ in range(3):
+            t0 = time.perf_counter()
+            drive.simulate(P, u, dt, n_sub=n_sub)
+            best = min(best, time.perf_counter() - t0)
+        out[f"kernel {name} ns/row-substep"] = best / (n * T * n_sub) * 1e9
+    if os.environ.get("DRIVE_SPEED_IDENTIFY") == "1":
+        from tests.truthsim.scenarios import draw_case, write_case
+        from vsa_gym.identify.pipeline import identify
+
+        with tempfile.TemporaryDirectory() as tmp:
+            csv = write_case(draw_case(5040, ("sensor_offset",)), tmp)
+            t0 = time.perf_counter()
+            identify(str(csv))
+            out["identify truth 5040 s"] = time.perf_counter() - t0
+    out["_file"] = vsa_gym.__file__  # type: ignore[assignment]
+    return out
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--against", type=Path, help="the other checkout (timed alternately with this one)")
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--identify", action="store_true", help="also time one identification (minutes)")
+    args = ap.parse_args(argv)
+    if args.identify:
+        os.environ["DRIVE_SPEED_IDENTIFY"] = "1"
+    from benchmarks.checkouts import compare
+
+    compare(Path(__file__), args.against, args.rounds, "figure", cache_env="DRIVE_SPEED_CACHE")
+
+
+if __name__ == "__main__":
+    main()
