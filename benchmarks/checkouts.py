@@ -9,6 +9,7 @@ read: its bytecode and numba caches go to a temporary directory (``PYTHONPYCACHE
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -19,6 +20,14 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def speed_parser(doc: str) -> argparse.ArgumentParser:
+    """The command line of a before/after speed benchmark: ``--against DIR`` and ``--rounds R``."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("--against", type=Path, help="the other checkout (timed alternately with this one)")
+    ap.add_argument("--rounds", type=int, default=2)
+    return ap
 
 
 def run_in(checkout: Path, cache: Path | None, script: Path) -> dict[str, float]:

@@ -16,7 +16,6 @@ faster; :mod:`benchmarks.checkouts`).  Figures (best of the rounds):
 
 from __future__ import annotations
 
-import argparse
 import os
 import tempfile
 import time
@@ -69,15 +68,14 @@ def measure() -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--against", type=Path, help="the other checkout (timed alternately with this one)")
-    ap.add_argument("--rounds", type=int, default=2)
+    # imported here: measure() also runs in checkouts that lack this module
+    from benchmarks.checkouts import compare, speed_parser
+
+    ap = speed_parser(__doc__)
     ap.add_argument("--identify", action="store_true", help="also time one identification (minutes)")
     args = ap.parse_args(argv)
     if args.identify:
         os.environ["DRIVE_SPEED_IDENTIFY"] = "1"
-    from benchmarks.checkouts import compare
-
     compare(Path(__file__), args.against, args.rounds, "figure", cache_env="DRIVE_SPEED_CACHE")
 
 

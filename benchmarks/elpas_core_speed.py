@@ -24,7 +24,6 @@ Timed (one thread, ``time.perf_counter``, best of 3 repeats within an interprete
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -130,12 +129,10 @@ def measure() -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--against", type=Path, help="the other checkout (timed alternately with this one)")
-    ap.add_argument("--rounds", type=int, default=2)
-    args = ap.parse_args(argv)
-    from benchmarks.checkouts import compare  # here: measure() also runs in checkouts that lack this module
+    # imported here: measure() also runs in checkouts that lack this module
+    from benchmarks.checkouts import compare, speed_parser
 
+    args = speed_parser(__doc__).parse_args(argv)
     compare(Path(__file__), args.against, args.rounds, "us per call", cache_env="ELPAS_SPEED_CACHE")
 
 
