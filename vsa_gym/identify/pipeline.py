@@ -58,11 +58,6 @@ SHAPE_GRID = 5
 # ----------------------------------------------------------------------------- estimator
 #: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
 RUNAWAY_NRMSE = 1.0
-def shooting_window(record: Record) -> float:
-    """Length (s) of the multiple-shooting windows of a record: a twentieth of it, 0.2 to 1 s."""
-    return float(np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2, 1.0))
-
-
 #: a full open-loop replay whose selected model still leaves this validation NRMSE drifts: the selection is
 #: repeated on shooting windows (:meth:`Identifier._second_opinion`)
 DRIFT_NRMSE = 0.1
@@ -72,6 +67,11 @@ DRIFT_NRMSE = 0.1
 BRANCH_FLOOR = 10.0
 RUNNER_UP = 1.25
 BRANCH_GAIN = 0.5
+
+
+def shooting_window(record: Record) -> float:
+    """Length (s) of the multiple-shooting windows of a record: a twentieth of it, 0.2 to 1 s."""
+    return float(np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2, 1.0))
 
 
 @dataclasses.dataclass
@@ -272,24 +272,25 @@ class Identifier:
         within a few per cent, and no second effect then removes what it leaves.  Where the selected model
         still validates :data:`BRANCH_FLOOR` times above the noise floor and a passing runner-up of round one
         validated within :data:`RUNNER_UP` of the winner, the later rounds are run again from the runner-up;
-        that branch's model replaces the selection only if it validates below :data:`BRANCH_GAIN` times the
-        selection's error, on the same part, so a branch wins on the data, not on a tie.
+        that branch's model replaces the selection only if its error is below :data:`BRANCH_GAIN` times the
+        selection's, compared as every other choice is (:func:`~vsa_gym.identify.fitting.compared`: on the fit
+        part where the validation part cannot tell the two apart), so a branch wins on the data, not on a tie.
         """
         if (self.max_effects < 2 or len(first) < 2 or not current.effects
                 or current.val_score <= BRANCH_FLOOR * floors["validation"]):
             return current, cands, ambiguous
         winner = min(first, key=lambda p: p[0].val_score)
-        runners = sorted((p for p in first if p[1] is not winner[1]
-                          and p[0].val_score <= RUNNER_UP * winner[0].val_score), key=lambda p: p[0].val_score)
+        runners = [p for p in first if p[1] is not winner[1] and p[0].val_score <= RUNNER_UP * winner[0].val_score]
         if not runners:
             return current, cands, ambiguous
-        fm, cand = runners[0]
+        fm, cand = min(runners, key=lambda p: p[0].val_score)
         branch, more, branch_ambiguous, _ = self._forward(ad, fm, names, masks, floors, 2)
+        s_branch, s_current, _ = compared(branch, current, floors["validation"])
         note = (f"the selection from round one's runner-up {cand.name} ({', '.join(branch.effects)}: validation "
                 f"{branch.val_score:.4g}) against {', '.join(current.effects)} ({current.val_score:.4g})")
         for c in more:
             c.reason = f"from runner-up {cand.name}: {c.reason}"
-        if not (branch.effects != current.effects and branch.val_score < BRANCH_GAIN * current.val_score):
+        if not (branch.effects != current.effects and s_branch < BRANCH_GAIN * s_current):
             for c in more:
                 c.accepted = False
             return current, cands + more, ambiguous
