@@ -19,12 +19,15 @@ Rigid transmission (``k_c = 0`` and ``backlash = 0``): ``m x'' = F_m - F_f(v) - 
 With a compliant transmission or backlash the inertia splits into a motor side
 ``frac_m m`` and a load side ``(1 - frac_m) m`` joined by the transmission force::
 
-    F_t = k dz(d) + c (v_m - v_l) dz'(d),   d = x_m - x_l,   g = backlash / 2
-    dz(d) = d - (sqrt((d + g)^2 + e^2) - sqrt((d - g)^2 + e^2)) / 2,   e = 0.05 g
+    F_t = k dz(d) + c (v_m - v_l) dz'(d),   d = x_m - x_l,   g = backlash / 2,   e = 0.05 g
+    dz(d) = 0                                  |d| <= g - e
+          = sign(d) (|d| - g + e)^2 / (4 e)    g - e < |d| < g + e
+          = sign(d) (|d| - g)                  |d| >= g + e
 
-``dz`` is a dead zone of total width ``backlash`` whose corners are rounded over ``e``
-(``dz = d`` without backlash).  A contact across the gap is one-sided: the teeth push, never
-pull, so where the damping term of a separating contact would reverse the force, ``F_t = 0``.
+``dz`` is a dead zone of total width ``backlash``, exactly free inside (a load floats there, pushed by
+nothing) with C1 corners over ``2 e`` (``dz = d`` without backlash).  A contact across the gap is
+one-sided: the teeth push, never pull, so where the damping term of a separating contact would
+reverse the force, ``F_t = 0``.
 With a compliance (``k_c > 0``): ``k = k_c``, ``c = c_c``.
 With backlash alone the teeth meet through a stiff, well damped contact that is not a
 free parameter, so that backlash adds only the gap: ``k = k_contact`` (default: a
@@ -176,11 +179,19 @@ def _tforce(P: np.ndarray, d: float, dv: float) -> float:
     k, c = _contact(P)
     g = 0.5 * P[12]
     if g > 0.0:
-        e2 = (E_CORNER * g) ** 2
-        r1 = np.sqrt((d + g) ** 2 + e2)
-        r2 = np.sqrt((d - g) ** 2 + e2)
-        dz = d - 0.5 * (r1 - r2)
-        ddz = 1.0 - 0.5 * ((d + g) / r1 - (d - g) / r2)
+        # exactly free inside the gap (a load floats there, pushed by nothing), C1 corners of width 2 e
+        e = E_CORNER * g
+        a = abs(d) - (g - e)
+        if a <= 0.0:
+            return 0.0
+        if a < 2.0 * e:
+            dz = a * a / (4.0 * e)
+            ddz = a / (2.0 * e)
+        else:
+            dz = a - e
+            ddz = 1.0
+        if d < 0.0:
+            dz = -dz
         f = k * dz + c * dv * ddz
         # the teeth push, never pull: a separating contact whose damping would pull carries no force
         if f * dz < 0.0:
