@@ -59,6 +59,7 @@ class ParamSpec:
     optional: bool = False  # a shape parameter held at ``absent`` (the model's default shape) unless freeing it
     # improves the validation error by the estimator's margin (a free shape can trade against the main
     # parameter where the data hold only their product)
+    grid: int = 0  # points of the start grid over an optional shape's range (0: the estimator's default)
 
     def clip(self, v: float) -> float:
         return float(min(max(v, self.lower), self.upper))

@@ -44,13 +44,14 @@ class Param:
     tolerance: Value = 0.0
     check_bound: bool = True
     optional: bool = False
+    grid: int = 0
 
     def spec(self, adapter: Any) -> ParamSpec:
         unit = self.unit(adapter) if callable(self.unit) else self.unit
         return ParamSpec(self.name, unit, _value(self.lower, adapter), _value(self.upper, adapter),
                          _value(self.absent, adapter), _value(self.typical, adapter), main=self.main,
                          tolerance=_value(self.tolerance, adapter), check_bound=self.check_bound,
-                         optional=self.optional)
+                         optional=self.optional, grid=self.grid)
 
 
 def _always(adapter: Any) -> bool:

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter, make_adapter
-from vsa_gym.identify.effects import EffectSpec
+from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.fitting import (
     SimulationErrorProblem,
     compared,
@@ -51,8 +51,14 @@ from vsa_gym.identify.selection import Ambiguity, excess_share, lookalikes, nois
 
 #: multiples of a candidate's typical size at which its ranking signature is taken (:meth:`Identifier._rank_sizes`)
 RANK_SIZES: tuple[float, ...] = (1.0, 4.0, 16.0)
-#: points of the grid over each optional shape parameter's range (see ``Identifier._shape_start``)
+#: points of the grid over each optional shape parameter's range (see ``Identifier._shape_starts``)
 SHAPE_GRID = 5
+
+
+def _is_switch(p: ParamSpec) -> bool:
+    """An optional shape whose held default lies outside its fitted range: off at the default, on within the
+    range (the drive's ``x_stick``: 0 is friction that creeps, a travel in range friction that sticks)."""
+    return p.optional and not p.lower <= p.absent <= p.upper
 
 
 # ----------------------------------------------------------------------------- estimator
@@ -361,27 +367,38 @@ class Identifier:
         # the optional shape parameters are freed only where that validates better by the margin; the free fit
         # starts from the best point of a grid over the shapes (a friction that builds up over a wide speed range
         # or a contact that rings fits only near its own shape, far from the held default)
-        start = {**init, **fm.theta(), **self._shape_start(ad, fm, spec, masks["fit"])}
-        free = fit_model(ad, {}, current.keys + list(spec.keys), current.specs + list(spec.params),
-                         start, masks, (*current.effects, name), self.max_nfev)
-        return free if free.val_score < (1 - self.margin) * fm.val_score else fm
+        # a switch (an optional shape whose held default lies outside its fitted range: friction that sticks) is
+        # tried both ways, each from its own best grid point: off, the other shapes are freed without it
+        best = fm
+        for shape in self._shape_starts(ad, fm, spec, masks["fit"]):
+            free_keys = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True)
+                         if not (_is_switch(p) and shape.get(k, p.absent) == p.absent)]
+            free = fit_model(ad, {}, current.keys + [k for k, _ in free_keys],
+                             current.specs + [p for _, p in free_keys], {**init, **fm.theta(), **shape}, masks,
+                             (*current.effects, name), self.max_nfev)
+            if free.val_score < (1 - self.margin) * fm.val_score and free.val_score < best.val_score:
+                best = free
+        return best
 
     @staticmethod
-    def _shape_start(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:
+    def _shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarray) -> list[dict[str, float]]:
         """Start of an effect's optional shape parameters (with its main parameter): the best fit-part cost on a
-        grid of shapes (``SHAPE_GRID`` points over each shape parameter's range, log-spaced where it is
-        positive, plus its default) times main sizes (the held fit's value at 0.5x, 1x and 2x, and the typical
-        size), all replayed in one batch.  Empty where the held fit's own point is the best."""
+        grid of shapes (``SHAPE_GRID`` points, or the parameter's own ``grid``, over each shape parameter's range,
+        log-spaced where it is positive, plus its typical value) times main sizes (the held fit's value at 0.5x, 1x
+        and 2x, and the typical size), all replayed in one batch.  Empty where the held fit's own point (the
+        shapes at their held default, ``absent``) is the best.  With switches (:func:`_is_switch`): the best
+        point with every switch off, then the best with one on."""
         keys, params = list(spec.keys), list(spec.params)
         theta = fm.theta()
         prob = SimulationErrorProblem(ad, {k: v for k, v in theta.items() if k not in keys}, keys, params, mask)
-        here = np.array([theta.get(k, p.typical) for k, p in zip(keys, params, strict=True)])
+        here = np.array([theta.get(k, p.absent if p.optional else p.typical)
+                         for k, p in zip(keys, params, strict=True)])
         axes = []
         for k, p in zip(keys, params, strict=True):
             if p.optional:
-                g = np.geomspace(p.lower, p.upper, SHAPE_GRID) if p.lower > 0 else np.linspace(p.lower, p.upper,
-                                                                                              SHAPE_GRID)
-                axes.append(np.unique(np.append(g, p.typical)))
+                n_g = p.grid or SHAPE_GRID
+                g = np.geomspace(p.lower, p.upper, n_g) if p.lower > 0 else np.linspace(p.lower, p.upper, n_g)
+                axes.append(np.unique(np.append(g, [p.typical, p.absent])))  # a switch's "off" too
             elif p.main:
                 v = theta[k]
                 g = [p.absent + f * (v - p.absent) for f in (0.5, 1.0, 2.0)] + [p.typical]
@@ -391,8 +408,15 @@ class Identifier:
         pts = np.vstack([here, np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T])
         sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
         sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
-        best = int(np.argmin(sse))
-        return {} if best == 0 or not sse[best] < sse[0] else dict(zip(keys, map(float, pts[best]), strict=True))
+        sw = [i for i, p in enumerate(params) if _is_switch(p)]
+        on = np.any(pts[:, sw] != np.array([params[i].absent for i in sw]), axis=1) if sw else np.zeros(len(pts), bool)
+        starts = []
+        for group in ((~on, on) if sw else (~on,)):
+            rows = np.flatnonzero(group)
+            best = int(rows[np.argmin(sse[rows])])
+            held_best = group[0] and (best == 0 or not sse[best] < sse[0])  # the off group holds the held point
+            starts.append({} if held_best else dict(zip(keys, map(float, pts[best]), strict=True)))
+        return starts
 
     @staticmethod
     def _start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:

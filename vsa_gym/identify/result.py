@@ -157,9 +157,10 @@ class IdentificationResult:
             lo, hi = e["ci"][main.name]
             unit = f" {main.unit}" if main.unit and main.unit != "-" else ""
             # a shape parameter the data asked to free (held at its default otherwise) is part of the cause
+            freed = set(self.final.keys)
             shapes = "".join(f"; {p.name} = {e['parameters'][p.name]:.3g}"
-                             f"{f' {p.unit}' if p.unit and p.unit != '-' else ''} (freed; held at {p.typical:.3g})"
-                             for p in spec.params if p.optional and p.name in e["parameters"])
+                             f"{f' {p.unit}' if p.unit and p.unit != '-' else ''} (freed; held at {p.absent:.3g})"
+                             for p in spec.params if p.optional and f"{e['name']}.{p.name}" in freed)
             # an effect accepted on the fit part alone (the validation part could not tell it apart) says so
             blind = any(c.accepted and c.name == e["name"] and c.judged_on == "fit" for c in self.candidates)
             where = ("; judged on the fit part: the validation part cannot tell it from the model without it "

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from vsa_gym.devices.drive.model import F_CONTACT, ZETA_CONTACT
+from vsa_gym.devices.drive.model import E_CORNER, F_CONTACT, ZETA_CONTACT
 from vsa_gym.identify.library import Effect, Param
 
 SYNTHETIC = "synthetic_drive"  # the experiment of vsa_gym.devices.drive.synthetic.make_drive_record
@@ -27,11 +27,39 @@ def _rot(a: Any) -> str:
     return a.units[1]
 
 
+def _resolution(a: Any) -> float:
+    """The position sensor's resolution (0 where the record does not give one)."""
+    return max((s.resolution for s in a.outputs if s.quantity == "position"), default=0.0)
+
+
 def _x_min(a: Any) -> float:
     """The smallest presliding travel that is a resolved regime and not a friction that sticks: a few sensor
     counts, or 2e-4 of the position spread."""
-    res = max((s.resolution for s in a.outputs if s.quantity == "position"), default=0.0)
-    return max(2e-4 * a.x_ref, 4.0 * res)
+    return max(2e-4 * a.x_ref, 4.0 * _resolution(a))
+
+
+def _stick_lower(a: Any) -> float:
+    """The shortest stick travel fitted: a quarter count (a millionth of the position spread without a
+    resolution); shorter travels change nothing the sensor can see and only make the bristle stiffer."""
+    r = _resolution(a)
+    return 0.25 * r if r > 0 else 1e-6 * a.x_ref
+
+
+def _stick_typical(a: Any) -> float:
+    """A stick travel of one count (4e-6 of the position spread without a resolution)."""
+    r = _resolution(a)
+    return r if r > 0 else 4e-6 * a.x_ref
+
+
+#: the travel over which friction that truly sticks gives way, ``x_c`` of the drive model's reset-integrator
+#: bristle (Haessig & Friedland 1991): held at 0 (the tanh law, which creeps at a speed of order v_eps under any
+#: force below the break-away) unless a stuck load validates better.  Real contacts stick: a closed loop at rest
+#: then holds a steady position error that a creeping law runs down (case 11006 of
+#: ``benchmarks.identify_truth --seed 11``: the true Stribeck friction validated at 300x the noise floor with the
+#: tanh law, near the floor with a one-count stick travel).  Above the presliding limit ``_x_min`` a travel is a
+#: resolved presliding regime (``hysteresis``), so the range ends there.
+STICK = Param("x_stick", _lin, _stick_lower, _x_min, 0.0, _stick_typical, main=False, check_bound=False,
+              optional=True, grid=3)
 
 
 def _k_typ(a: Any) -> float:
@@ -59,9 +87,10 @@ LIBRARY: tuple[Effect, ...] = (
                                          Param("v_t", lambda a: f"{a.units[0]}/s", lambda a: a.params.v_eps,
                                                lambda a: 0.2 * a.v_ref, lambda a: a.params.v_eps,
                                                lambda a: a.params.v_eps, main=False, check_bound=False,
-                                               optional=True)),
+                                               optional=True), STICK),
            enters="adds F_c to the drive's Coulomb friction F_c tanh(v / v_t) (v_t: the model's v_eps unless "
-                  "freed)", when=lambda a: "F_c" not in a.free,
+                  "freed); with a stick travel x_stick > 0 the load sticks below the break-away force instead "
+                  "(reset-integrator bristle, x_c = x_stick)", when=lambda a: "F_c" not in a.free,
            synthetic={SYNTHETIC: {"F_c": (0.6, 2.0)}}, source=SOURCE),
     Effect("stribeck_friction", AT_LOAD, (
         Param("F_s", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0, lambda a: 0.03 * a.F_ref),
@@ -72,9 +101,9 @@ LIBRARY: tuple[Effect, ...] = (
         # better: with the shape fixed at 2 a near-exponential decay came out with F_s 22 % low (independent
         # record, case 7005), but in a closed loop that crosses zero speed fast only F_s v_s is seen and a free
         # shape trades against F_s
-        Param("delta", "-", 1.0, 2.0, 2.0, 2.0, main=False, check_bound=False, optional=True)),
+        Param("delta", "-", 1.0, 2.0, 2.0, 2.0, main=False, check_bound=False, optional=True), STICK),
            enters="the static excess of the Stribeck steady state: F_f = (F_c + F_s exp(-|v/v_s|^delta)) "
-                  "tanh(v/v_eps) + b v",
+                  "tanh(v/v_eps) + b v, or sticking below F_c + F_s with a stick travel x_stick > 0",
            synthetic={SYNTHETIC: {"F_s": (1.0, 2.5), "v_s": (0.02, 0.05)}}, source=SOURCE),
     Effect("viscous_friction", AT_LOAD, (Param("b", lambda a: f"{a.units[1]} s/{a.units[0]}", 0.0,
                                                lambda a: 2 * a.F_ref / a.v_ref, 0.0,
@@ -93,8 +122,11 @@ LIBRARY: tuple[Effect, ...] = (
         # stood in for it); fitted with the gap, like the amplifier's start share.  A start pressed to the bound
         # is the gap standing in for something else (EMPS at commit 85b4fa3, `vsa-gym identify emps`: a 22 mm
         # "gap" with the motor held at its edge validated 2 % better than Coulomb friction), so the bound is
-        # checked like a shape parameter's
-        Param("start", "-", -1.0, 1.0, 0.0, 0.0, main=False)),
+        # checked like a shape parameter's.  The range ends where the dead zone's corners begin (1 - E_CORNER of
+        # the half gap): a start there is a motor already in contact, which the gap's start cannot tell from a
+        # gap standing in for something else (EMPS with the sharp dead zone: a 24 mm "gap" started 0.998 of the
+        # way to the tooth, 0.2 % inside the old bound of 1)
+        Param("start", "-", -(1.0 - E_CORNER), 1.0 - E_CORNER, 0.0, 0.0, main=False)),
            enters="a dead zone of total width `width` in the transmission between motor and load (one-sided "
                   "contact of mode f_contact and damping ratio zeta_contact on the reduced mass); the motor starts "
                   "at `start` x width / 2 from the middle of the gap",
