@@ -61,6 +61,12 @@ class ParamSpec:
     # parameter where the data hold only their product)
     grid: int = 0  # points of the start grid over an optional shape's range (0: the estimator's default)
 
+    @property
+    def switch(self) -> bool:
+        """An optional shape whose held default lies outside its fitted range: off at the default, on within
+        the range (the drive's ``x_stick``: 0 is friction that creeps, a travel in range friction that sticks)."""
+        return self.optional and not self.lower <= self.absent <= self.upper
+
     def clip(self, v: float) -> float:
         return float(min(max(v, self.lower), self.upper))
 

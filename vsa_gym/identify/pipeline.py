@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter, make_adapter
-from vsa_gym.identify.effects import EffectSpec, ParamSpec
+from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.fitting import (
     SimulationErrorProblem,
     compared,
@@ -53,12 +53,6 @@ from vsa_gym.identify.selection import Ambiguity, excess_share, lookalikes, nois
 RANK_SIZES: tuple[float, ...] = (1.0, 4.0, 16.0)
 #: points of the grid over each optional shape parameter's range (see ``Identifier._shape_starts``)
 SHAPE_GRID = 5
-
-
-def _is_switch(p: ParamSpec) -> bool:
-    """An optional shape whose held default lies outside its fitted range: off at the default, on within the
-    range (the drive's ``x_stick``: 0 is friction that creeps, a travel in range friction that sticks)."""
-    return p.optional and not p.lower <= p.absent <= p.upper
 
 
 # ----------------------------------------------------------------------------- estimator
@@ -372,7 +366,7 @@ class Identifier:
         best = fm
         for shape in self._shape_starts(ad, fm, spec, masks["fit"]):
             free_keys = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True)
-                         if not (_is_switch(p) and shape.get(k, p.absent) == p.absent)]
+                         if not (p.switch and shape.get(k, p.absent) == p.absent)]
             free = fit_model(ad, {}, current.keys + [k for k, _ in free_keys],
                              current.specs + [p for _, p in free_keys], {**init, **fm.theta(), **shape}, masks,
                              (*current.effects, name), self.max_nfev)
@@ -386,7 +380,7 @@ class Identifier:
         grid of shapes (``SHAPE_GRID`` points, or the parameter's own ``grid``, over each shape parameter's range,
         log-spaced where it is positive, plus its typical value) times main sizes (the held fit's value at 0.5x, 1x
         and 2x, and the typical size), all replayed in one batch.  Empty where the held fit's own point (the
-        shapes at their held default, ``absent``) is the best.  With switches (:func:`_is_switch`): the best
+        shapes at their held default, ``absent``) is the best.  With switches (``ParamSpec.switch``): the best
         point with every switch off, then the best with one on."""
         keys, params = list(spec.keys), list(spec.params)
         theta = fm.theta()
@@ -408,7 +402,7 @@ class Identifier:
         pts = np.vstack([here, np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T])
         sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
         sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
-        sw = [i for i, p in enumerate(params) if _is_switch(p)]
+        sw = [i for i, p in enumerate(params) if p.switch]
         on = np.any(pts[:, sw] != np.array([params[i].absent for i in sw]), axis=1) if sw else np.zeros(len(pts), bool)
         starts = []
         for group in ((~on, on) if sw else (~on,)):

@@ -38,17 +38,11 @@ def _x_min(a: Any) -> float:
     return max(2e-4 * a.x_ref, 4.0 * _resolution(a))
 
 
-def _stick_lower(a: Any) -> float:
-    """The shortest stick travel fitted: a quarter count (a millionth of the position spread without a
-    resolution); shorter travels change nothing the sensor can see and only make the bristle stiffer."""
-    r = _resolution(a)
-    return 0.25 * r if r > 0 else 1e-6 * a.x_ref
-
-
-def _stick_typical(a: Any) -> float:
-    """A stick travel of one count (4e-6 of the position spread without a resolution)."""
-    r = _resolution(a)
-    return r if r > 0 else 4e-6 * a.x_ref
+def _count(a: Any) -> float:
+    """One sensor count (4e-6 of the position spread where the record gives no resolution): the stick travel's
+    typical value; a quarter of it is the shortest fitted, since shorter travels change nothing the sensor can
+    see and only make the bristle stiffer."""
+    return _resolution(a) or 4e-6 * a.x_ref
 
 
 #: the travel over which friction that truly sticks gives way, ``x_c`` of the drive model's reset-integrator
@@ -58,7 +52,7 @@ def _stick_typical(a: Any) -> float:
 #: ``benchmarks.identify_truth --seed 11``: the true Stribeck friction validated at 300x the noise floor with the
 #: tanh law, near the floor with a one-count stick travel).  Above the presliding limit ``_x_min`` a travel is a
 #: resolved presliding regime (``hysteresis``), so the range ends there.
-STICK = Param("x_stick", _lin, _stick_lower, _x_min, 0.0, _stick_typical, main=False, check_bound=False,
+STICK = Param("x_stick", _lin, lambda a: 0.25 * _count(a), _x_min, 0.0, _count, main=False, check_bound=False,
               optional=True, grid=3)
 
 
