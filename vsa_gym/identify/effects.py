@@ -60,6 +60,7 @@ class ParamSpec:
     # improves the validation error by the estimator's margin (a free shape can trade against the main
     # parameter where the data hold only their product)
     grid: int = 0  # points of the start grid over an optional shape's range (0: the estimator's default)
+    dead_with: str = ""  # a switch (by name) that, on, leaves this shape out of the equations: held then
 
     @property
     def switch(self) -> bool:

@@ -9,6 +9,7 @@ validation part; :func:`compared` says on which part two models are judged again
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Collection
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -143,13 +144,18 @@ def compared(a: FittedModel, b: FittedModel, floor: float) -> tuple[float, float
     return a.val_score, b.val_score, "validation"
 
 
+def without_keys(fm: FittedModel, keys: Collection[str]) -> FittedModel:
+    """``fm`` with parameters ``keys`` taken out, i.e. held at "absent" (not refitted; scores are ``fm``'s)."""
+    keep = [i for i, k in enumerate(fm.keys) if k not in keys]
+    return dataclasses.replace(fm, keys=[fm.keys[i] for i in keep], specs=[fm.specs[i] for i in keep],
+                               values=fm.values[keep], ci=fm.ci[keep],
+                               at_bound=[k for k in fm.at_bound if k not in keys])
+
+
 def without_effect(fm: FittedModel, name: str) -> FittedModel:
     """``fm`` with effect ``name`` and its parameters taken out (not refitted; scores are ``fm``'s)."""
-    keep = [i for i, k in enumerate(fm.keys) if not k.startswith(f"{name}.")]
-    return dataclasses.replace(fm, effects=tuple(e for e in fm.effects if e != name),
-                               keys=[fm.keys[i] for i in keep], specs=[fm.specs[i] for i in keep],
-                               values=fm.values[keep], ci=fm.ci[keep],
-                               at_bound=[k for k in fm.at_bound if not k.startswith(f"{name}.")])
+    reduced = without_keys(fm, [k for k in fm.keys if k.startswith(f"{name}.")])
+    return dataclasses.replace(reduced, effects=tuple(e for e in fm.effects if e != name))
 
 
 def effect_evidence(spec: EffectSpec, fm: FittedModel) -> tuple[bool, bool, list[str]]:

@@ -45,13 +45,14 @@ class Param:
     check_bound: bool = True
     optional: bool = False
     grid: int = 0
+    dead_with: str = ""
 
     def spec(self, adapter: Any) -> ParamSpec:
         unit = self.unit(adapter) if callable(self.unit) else self.unit
         return ParamSpec(self.name, unit, _value(self.lower, adapter), _value(self.upper, adapter),
                          _value(self.absent, adapter), _value(self.typical, adapter), main=self.main,
                          tolerance=_value(self.tolerance, adapter), check_bound=self.check_bound,
-                         optional=self.optional, grid=self.grid)
+                         optional=self.optional, grid=self.grid, dead_with=self.dead_with)
 
 
 def _always(adapter: Any) -> bool:

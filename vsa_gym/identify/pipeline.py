@@ -37,7 +37,6 @@ import numpy as np
 from vsa_gym.identify.adapters import Adapter, make_adapter
 from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.fitting import (
-    SimulationErrorProblem,
     compared,
     effect_evidence,
     fit_model,
@@ -48,11 +47,10 @@ from vsa_gym.identify.fitting import (
 from vsa_gym.identify.record import Record
 from vsa_gym.identify.result import Candidate, FittedModel, IdentificationResult, output_metrics, residual_tests
 from vsa_gym.identify.selection import Ambiguity, excess_share, lookalikes, noise_floor, separating_experiment
+from vsa_gym.identify.starts import main_start, shape_variants
 
 #: multiples of a candidate's typical size at which its ranking signature is taken (:meth:`Identifier._rank_sizes`)
 RANK_SIZES: tuple[float, ...] = (1.0, 4.0, 16.0)
-#: points of the grid over each optional shape parameter's range (see ``Identifier._shape_starts``)
-SHAPE_GRID = 5
 
 
 # ----------------------------------------------------------------------------- estimator
@@ -352,7 +350,7 @@ class Identifier:
         """``current`` plus effect ``name``, all refitted jointly."""
         spec = ad.effects[name]
         init = {**current.theta(), **{k: p.typical for k, p in zip(spec.keys, spec.params, strict=True)}}
-        init.update(self._start(ad, current, spec, masks["fit"]))
+        init.update(main_start(ad, current, spec, masks["fit"]))
         held = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if not p.optional]
         fm = fit_model(ad, {}, current.keys + [k for k, _ in held], current.specs + [p for _, p in held], init,
                        masks, (*current.effects, name), self.max_nfev)
@@ -362,75 +360,25 @@ class Identifier:
         # starts from the best point of a grid over the shapes (a friction that builds up over a wide speed range
         # or a contact that rings fits only near its own shape, far from the held default)
         # a switch (an optional shape whose held default lies outside its fitted range: friction that sticks) is
-        # tried both ways, each from its own best grid point: off, the other shapes are freed without it
+        # tried both ways, each from its own best grid point: off, the other shapes are freed without it.  A
+        # switch of the same name already on in ``current`` is the same physical switch (one friction sticks or
+        # creeps, whichever of its terms carries the stick travel): the new effect's stays off, and the model is
+        # tried with the earlier one on (as it is) and off (both creep)
         best = fm
-        for shape in self._shape_starts(ad, fm, spec, masks["fit"]):
+        for base, shape in shape_variants(ad, current, fm, spec, masks["fit"]):
+            on = {p.name for k, p in zip(spec.keys, spec.params, strict=True)
+                  if p.switch and shape.get(k, p.absent) != p.absent}
+            on |= {p.name for p in base.specs if p.switch}
             free_keys = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True)
-                         if not (p.switch and shape.get(k, p.absent) == p.absent)]
-            free = fit_model(ad, {}, current.keys + [k for k, _ in free_keys],
-                             current.specs + [p for _, p in free_keys], {**init, **fm.theta(), **shape}, masks,
+                         if not (p.switch and shape.get(k, p.absent) == p.absent) and p.dead_with not in on]
+            if not any(p.optional for _, p in free_keys) and base is current:
+                continue  # nothing to free beyond the held fit
+            free = fit_model(ad, {}, base.keys + [k for k, _ in free_keys],
+                             base.specs + [p for _, p in free_keys], {**init, **fm.theta(), **shape}, masks,
                              (*current.effects, name), self.max_nfev)
             if free.val_score < (1 - self.margin) * fm.val_score and free.val_score < best.val_score:
                 best = free
         return best
-
-    @staticmethod
-    def _shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarray) -> list[dict[str, float]]:
-        """Start of an effect's optional shape parameters (with its main parameter): the best fit-part cost on a
-        grid of shapes (``SHAPE_GRID`` points, or the parameter's own ``grid``, over each shape parameter's range,
-        log-spaced where it is positive, plus its typical value) times main sizes (the held fit's value at 0.5x, 1x
-        and 2x, and the typical size), all replayed in one batch.  Empty where the held fit's own point (the
-        shapes at their held default, ``absent``) is the best.  With switches (``ParamSpec.switch``): the best
-        point with every switch off, then the best with one on."""
-        keys, params = list(spec.keys), list(spec.params)
-        theta = fm.theta()
-        prob = SimulationErrorProblem(ad, {k: v for k, v in theta.items() if k not in keys}, keys, params, mask)
-        here = np.array([theta.get(k, p.absent if p.optional else p.typical)
-                         for k, p in zip(keys, params, strict=True)])
-        axes = []
-        for k, p in zip(keys, params, strict=True):
-            if p.optional:
-                n_g = p.grid or SHAPE_GRID
-                g = np.geomspace(p.lower, p.upper, n_g) if p.lower > 0 else np.linspace(p.lower, p.upper, n_g)
-                axes.append(np.unique(np.append(g, [p.typical, p.absent])))  # a switch's "off" too
-            elif p.main:
-                v = theta[k]
-                g = [p.absent + f * (v - p.absent) for f in (0.5, 1.0, 2.0)] + [p.typical]
-                axes.append(np.unique([x for x in g if p.lower < x < p.upper] or [v]))
-            else:
-                axes.append(np.array([theta.get(k, p.typical)]))
-        pts = np.vstack([here, np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T])
-        sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
-        sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
-        sw = [i for i, p in enumerate(params) if p.switch]
-        on = np.any(pts[:, sw] != np.array([params[i].absent for i in sw]), axis=1) if sw else np.zeros(len(pts), bool)
-        starts = []
-        for group in ((~on, on) if sw else (~on,)):
-            rows = np.flatnonzero(group)
-            best = int(rows[np.argmin(sse[rows])])
-            held_best = group[0] and (best == 0 or not sse[best] < sse[0])  # the off group holds the held point
-            starts.append({} if held_best else dict(zip(keys, map(float, pts[best]), strict=True)))
-        return starts
-
-    @staticmethod
-    def _start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:
-        """Start of the new effect's main parameter: the best of a grid (0.25x to 16x its typical size, both
-        signs where allowed), all replayed in one batch.  Stick-slip and gaps make the simulation error rough
-        in these parameters, so a single start can stall in a local minimum far from the truth."""
-        k, p = next((k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main)
-        step = p.typical - p.absent
-        grid = [p.absent + f * step for f in (0.25, 1.0, 4.0, 16.0)]
-        grid += [p.absent - f * step for f in (0.25, 1.0, 4.0, 16.0)]
-        grid = [v for v in grid if p.lower + 0.02 * (p.upper - p.lower) < v < p.upper - 0.02 * (p.upper - p.lower)]
-        if len(grid) < 2:
-            return {}
-        prob = SimulationErrorProblem(ad, current.theta(), list(spec.keys), list(spec.params), mask)
-        rows = np.tile(prob.to_x(np.array([q.typical for q in spec.params])), (len(grid), 1))
-        i = list(spec.keys).index(k)
-        rows[:, i] = (np.array(grid) - prob.offs[i]) / prob.scale[i]
-        sse = np.sum(prob.batch(rows) ** 2, axis=1)  # the fit-part cost of each start, one batched replay
-        sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
-        return {k: float(grid[int(np.argmin(sse))])}
 
     def _judge(self, ad: Adapter, cand: Candidate, fm: FittedModel, current: FittedModel,
                floors: dict[str, float]) -> None:

@@ -77,11 +77,12 @@ LIBRARY: tuple[Effect, ...] = (
                                                lambda a: 0.03 * a.F_ref),
                                          # the speed over which the friction builds up, F_c tanh(v / v_t): held at
                                          # the model's regularisation v_eps (a sharp sign) unless freeing it
-                                         # validates better (a lubricated contact that creeps instead of sticking)
+                                         # validates better (a lubricated contact that creeps instead of sticking);
+                                         # a friction that sticks (x_stick on) has no tanh, so v_t is held then
                                          Param("v_t", lambda a: f"{a.units[0]}/s", lambda a: a.params.v_eps,
                                                lambda a: 0.2 * a.v_ref, lambda a: a.params.v_eps,
                                                lambda a: a.params.v_eps, main=False, check_bound=False,
-                                               optional=True), STICK),
+                                               optional=True, dead_with=STICK.name), STICK),
            enters="adds F_c to the drive's Coulomb friction F_c tanh(v / v_t) (v_t: the model's v_eps unless "
                   "freed); with a stick travel x_stick > 0 the load sticks below the break-away force instead "
                   "(reset-integrator bristle, x_c = x_stick)", when=lambda a: "F_c" not in a.free,

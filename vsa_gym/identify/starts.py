@@ -1,0 +1,104 @@
+"""Where the identification's fits start: a new effect's main parameter, its optional shape parameters, and the
+variants of a switch (:class:`vsa_gym.identify.pipeline.Identifier` calls these for every candidate).
+
+Stick-slip, gaps and contacts that ring make the simulation error rough in their parameters, so a single start
+can stall in a local minimum far from the truth: each start is the best point of a small grid, all replayed in one
+batch (the adapter's batched roll-out).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from vsa_gym.identify.adapters import Adapter
+from vsa_gym.identify.effects import EffectSpec
+from vsa_gym.identify.fitting import SimulationErrorProblem, without_keys
+from vsa_gym.identify.result import FittedModel
+
+#: points of the grid over each optional shape parameter's range (see :func:`shape_starts`)
+SHAPE_GRID = 5
+
+
+def shape_variants(ad: Adapter, current: FittedModel, fm: FittedModel, spec: EffectSpec,
+                   mask: np.ndarray) -> list[tuple[FittedModel, dict[str, float]]]:
+    """The free fits ``Identifier._with`` tries: ``(model whose free keys it starts from, shape start)``.  Without a
+    switch ``current`` already holds on: ``current`` with each start of :func:`shape_starts`.  With one
+    (``current``'s free switches named like one of ``spec``'s): ``current`` as it is with the new effect's
+    switches off, and ``current`` with those switches held off too."""
+    names = {p.name for p in spec.params if p.switch}
+    shared = [k for k, p in zip(current.keys, current.specs, strict=True) if p.switch and p.name in names]
+    if not shared:
+        return [(current, shape) for shape in shape_starts(ad, fm, spec, mask)]
+    off = without_keys(current, shared)
+    return [(current, shape_starts(ad, fm, spec, mask, switches=False)[0]),
+            (off, shape_starts(ad, without_keys(fm, shared), spec, mask, switches=False)[0])]
+
+
+def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarray,
+                 switches: bool = True) -> list[dict[str, float]]:
+    """Start of an effect's optional shape parameters (with its main parameter): the best fit-part cost on a
+    grid of shapes (``SHAPE_GRID`` points, or the parameter's own ``grid``, over each shape parameter's range,
+    log-spaced where it is positive, plus its typical value) times main sizes (the held fit's value at 0.5x, 1x
+    and 2x, and the typical size), all replayed in one batch.  Empty where the held fit's own point (the
+    shapes at their held default, ``absent``) is the best.  With switches (``ParamSpec.switch``): the best
+    point with every switch off, then the best with one on (``switches=False``: only the first); a shape
+    that a switch on leaves out of the equations (``dead_with``) stays at its default on those points."""
+    keys, params = list(spec.keys), list(spec.params)
+    theta = fm.theta()
+    prob = SimulationErrorProblem(ad, {k: v for k, v in theta.items() if k not in keys}, keys, params, mask)
+    here = np.array([theta.get(k, p.absent if p.optional else p.typical)
+                     for k, p in zip(keys, params, strict=True)])
+    axes = []
+    for k, p in zip(keys, params, strict=True):
+        if p.optional and (switches or not p.switch):
+            n_g = p.grid or SHAPE_GRID
+            g = np.geomspace(p.lower, p.upper, n_g) if p.lower > 0 else np.linspace(p.lower, p.upper, n_g)
+            axes.append(np.unique(np.append(g, [p.typical, p.absent])))  # a switch's "off" too
+        elif p.optional:
+            axes.append(np.array([p.absent]))
+        elif p.main:
+            v = theta[k]
+            g = [p.absent + f * (v - p.absent) for f in (0.5, 1.0, 2.0)] + [p.typical]
+            axes.append(np.unique([x for x in g if p.lower < x < p.upper] or [v]))
+        else:
+            axes.append(np.array([theta.get(k, p.typical)]))
+    pts = np.vstack([here, np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T])
+    sw = [i for i, p in enumerate(params) if p.switch]
+    is_on = {params[i].name: pts[:, i] != params[i].absent for i in sw}
+    keep = np.ones(len(pts), bool)
+    for i, p in enumerate(params):
+        if p.dead_with in is_on:  # a dead shape's grid values would only repeat the replay
+            keep &= ~(is_on[p.dead_with] & (pts[:, i] != p.absent))
+    keep[0] = True
+    pts = pts[keep]
+    sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
+    sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
+    on = np.any(pts[:, sw] != np.array([params[i].absent for i in sw]), axis=1) if sw else np.zeros(len(pts), bool)
+    starts = []
+    for group in ((~on, on) if sw and switches else (~on,)):
+        rows = np.flatnonzero(group)
+        best = int(rows[np.argmin(sse[rows])])
+        held_best = group[0] and (best == 0 or not sse[best] < sse[0])  # the off group holds the held point
+        starts.append({} if held_best else dict(zip(keys, map(float, pts[best]), strict=True)))
+    return starts
+
+
+def main_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:
+    """Start of the new effect's main parameter: the best of a grid (0.25x to 16x its typical size, both
+    signs where allowed), all replayed in one batch.  Stick-slip and gaps make the simulation error rough
+    in these parameters, so a single start can stall in a local minimum far from the truth."""
+    k, p = next((k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main)
+    step = p.typical - p.absent
+    grid = [p.absent + f * step for f in (0.25, 1.0, 4.0, 16.0)]
+    grid += [p.absent - f * step for f in (0.25, 1.0, 4.0, 16.0)]
+    grid = [v for v in grid if p.lower + 0.02 * (p.upper - p.lower) < v < p.upper - 0.02 * (p.upper - p.lower)]
+    if len(grid) < 2:
+        return {}
+    prob = SimulationErrorProblem(ad, current.theta(), list(spec.keys), list(spec.params), mask)
+    rows = np.tile(prob.to_x(np.array([q.typical for q in spec.params])), (len(grid), 1))
+    i = list(spec.keys).index(k)
+    rows[:, i] = (np.array(grid) - prob.offs[i]) / prob.scale[i]
+    sse = np.sum(prob.batch(rows) ** 2, axis=1)  # the fit-part cost of each start, one batched replay
+    sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
+    return {k: float(grid[int(np.argmin(sse))])}
+
