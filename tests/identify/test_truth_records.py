@@ -134,3 +134,16 @@ def test_runner_up_branch_names_mesh_loss_and_viscous_friction_a_sensor_gain_sto
     assert named["gearbox_efficiency"]["loss"] == pytest.approx(truth["main"]["gearbox_efficiency"], rel=0.15)
     gain = [c for c in res.candidates if c.name == "sensor_gain" and c.round == 1]
     assert gain and not gain[0].accepted and "runner-up viscous_friction" in gain[0].reason
+
+
+def test_a_second_friction_term_is_also_fitted_with_the_first_creeping(tmp_path):
+    """Case 7054 (Stribeck + Coulomb friction, closed-loop sines): Coulomb friction goes in first with a stick
+    travel; the Stribeck excess was then fitted only beside a stuck friction (validation 7.4e-5), and a Dahl loop
+    replaced the Coulomb level (3.5e-5) where the true creeping pair replays at 3.5e-5.  The stick travel is one
+    switch of the friction, so the pair is also tried with both terms creeping: both are named, no loop."""
+    res, truth = _identify(tmp_path, 7054, ("stribeck_friction", "coulomb_friction"))
+    assert sorted(e["name"] for e in res["effects"]) == ["coulomb_friction", "stribeck_friction"], res["statements"]
+    got = {e["name"]: e["parameters"] for e in res["effects"]}
+    assert got["coulomb_friction"]["F_c"] == pytest.approx(truth["main"]["coulomb_friction"], rel=0.15)
+    assert got["stribeck_friction"]["F_s"] == pytest.approx(truth["main"]["stribeck_friction"], rel=0.15)
+    assert got["coulomb_friction"]["x_stick"] == 0.0 and got["stribeck_friction"]["x_stick"] == 0.0

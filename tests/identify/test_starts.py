@@ -1,0 +1,76 @@
+"""Fit starts of the identification (:mod:`vsa_gym.identify.starts`) on a record of the independent truth
+simulator (tests/truthsim): a friction's stick travel is one switch, and a shape the switch leaves out of the
+equations is not searched while it is on."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.truthsim.scenarios import draw_case, write_case
+from vsa_gym.identify import starts
+from vsa_gym.identify.adapters import make_adapter
+from vsa_gym.identify.fitting import SimulationErrorProblem, fit_model
+from vsa_gym.identify.record import load_record
+
+
+@pytest.fixture(scope="module")
+def coulomb_case(tmp_path_factory):
+    """Truth case 20250000 (Coulomb friction; the tuning set of tests/identify/test_truth_records.py), its
+    adapter, masks and the Coulomb friction held at its default shapes."""
+    csv = write_case(draw_case(20250 * 1000, ("coulomb_friction",)), tmp_path_factory.mktemp("truth"))
+    rec = load_record(csv)
+    ad, masks = make_adapter(rec), rec.masks()
+    spec = ad.effects["coulomb_friction"]
+    keys = [f"base.{b.name}" for b in ad.base] + ["coulomb_friction.F_c"]
+    specs = [*ad.base, spec.params[0]]
+    init = {**{f"base.{b.name}": b.absent for b in ad.base}, "coulomb_friction.F_c": spec.params[0].typical}
+    held = fit_model(ad, {}, keys, specs, init, masks, ("coulomb_friction",), 10)
+    return ad, masks, held
+
+
+def test_a_shape_dead_with_its_switch_is_held_on_every_point_where_the_switch_is_on(coulomb_case, monkeypatch):
+    ad, masks, held = coulomb_case
+    spec = ad.effects["coulomb_friction"]
+    i_vt, i_xs = spec.keys.index("coulomb_friction.v_t"), spec.keys.index("coulomb_friction.x_stick")
+    assert spec.params[i_vt].dead_with == spec.params[i_xs].name and spec.params[i_xs].switch
+    seen = []
+    original = SimulationErrorProblem.batch
+
+    def spy(self, X):
+        seen.append(self.to_p(X))
+        return original(self, X)
+
+    monkeypatch.setattr(SimulationErrorProblem, "batch", spy)
+    off, on = starts.shape_starts(ad, held, spec, masks["fit"])
+    pts = seen[-1]
+    sticking = pts[:, i_xs] != spec.params[i_xs].absent
+    assert sticking.any() and (~sticking).any()
+    assert np.all(pts[sticking, i_vt] == spec.params[i_vt].absent)  # v_t not searched while it sticks
+    assert len(np.unique(pts[~sticking, i_vt])) > 2  # but searched while it creeps
+    assert on["coulomb_friction.x_stick"] > 0.0 and off.get("coulomb_friction.x_stick", 0.0) == 0.0
+
+
+def test_a_switch_already_on_is_tried_on_and_off_for_a_second_friction_term(coulomb_case):
+    ad, masks, held = coulomb_case
+    spec = ad.effects["coulomb_friction"]
+    i_xs = spec.keys.index("coulomb_friction.x_stick")
+    sticking = fit_model(ad, {}, held.keys + ["coulomb_friction.x_stick"], held.specs + [spec.params[i_xs]],
+                         {**held.theta(), "coulomb_friction.x_stick": spec.params[i_xs].typical}, masks,
+                         held.effects, 5)
+    stribeck = ad.effects["stribeck_friction"]
+    f_s = stribeck.params[0]
+
+    def with_stribeck(fm):  # the held fit Identifier._with starts the variants from
+        return fit_model(ad, {}, fm.keys + ["stribeck_friction.F_s"], fm.specs + [f_s],
+                         {**fm.theta(), "stribeck_friction.F_s": f_s.typical}, masks,
+                         (*fm.effects, "stribeck_friction"), 3)
+
+    variants = starts.shape_variants(ad, sticking, with_stribeck(sticking), stribeck, masks["fit"])
+    bases = [set(base.keys) for base, _ in variants]
+    assert bases == [set(sticking.keys), set(sticking.keys) - {"coulomb_friction.x_stick"}]
+    for _, shape in variants:  # the new term's own stick travel stays off: one friction, one switch
+        assert shape.get("stribeck_friction.x_stick", 0.0) == 0.0
+    # without a switch on in the model, the new term's switch is tried itself (off, then on)
+    alone = starts.shape_variants(ad, held, with_stribeck(held), stribeck, masks["fit"])
+    assert [base for base, _ in alone] == [held, held] and alone[1][1]["stribeck_friction.x_stick"] > 0.0
