@@ -59,7 +59,8 @@ class ParamSpec:
     optional: bool = False  # a shape parameter held at ``absent`` (the model's default shape) unless freeing it
     # improves the validation error by the estimator's margin (a free shape can trade against the main
     # parameter where the data hold only their product)
-    grid: int = 0  # points of the start grid over an optional shape's range (0: the estimator's default)
+    grid: int = 0  # points of the start grid over a shape's range (0: the estimator's default for an optional
+    # shape, the typical value alone for one that is always fitted)
     dead_with: str = ""  # a switch (by name) that, on, leaves this shape out of the equations: held then
 
     @property

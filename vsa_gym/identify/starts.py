@@ -17,6 +17,11 @@ from vsa_gym.identify.result import FittedModel
 
 #: points of the grid over each optional shape parameter's range (see :func:`shape_starts`)
 SHAPE_GRID = 5
+#: multiples of the typical size at which a new effect's main parameter is tried (:func:`main_start`), and, finer,
+#: where a shape is searched with it: a loop's force and travel trade against each other, and in an open-loop
+#: replay a force 2x off runs away as far as one 4x off
+MAIN_SIZES: tuple[float, ...] = (0.25, 1.0, 4.0, 16.0)
+MAIN_SIZES_SHAPED: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
 
 
 def shape_variants(ad: Adapter, current: FittedModel, fm: FittedModel, spec: EffectSpec,
@@ -86,19 +91,30 @@ def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarra
 def main_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:
     """Start of the new effect's main parameter: the best of a grid (0.25x to 16x its typical size, both
     signs where allowed), all replayed in one batch.  Stick-slip and gaps make the simulation error rough
-    in these parameters, so a single start can stall in a local minimum far from the truth."""
+    in these parameters, so a single start can stall in a local minimum far from the truth.  A fitted shape
+    parameter with a ``grid`` (not optional: always fitted) is searched with it, over its range (log-spaced
+    where positive) and its typical value: a Dahl loop started at a typical presliding travel 5x the true one
+    slid to the shortest travel, a Coulomb friction of twice the loop's force (truth case 11024)."""
     k, p = next((k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main)
     step = p.typical - p.absent
-    grid = [p.absent + f * step for f in (0.25, 1.0, 4.0, 16.0)]
-    grid += [p.absent - f * step for f in (0.25, 1.0, 4.0, 16.0)]
+    sizes = MAIN_SIZES_SHAPED if any(q.grid and not q.optional for q in spec.params) else MAIN_SIZES
+    grid = [p.absent + f * step for f in sizes] + [p.absent - f * step for f in sizes]
     grid = [v for v in grid if p.lower + 0.02 * (p.upper - p.lower) < v < p.upper - 0.02 * (p.upper - p.lower)]
     if len(grid) < 2:
         return {}
-    prob = SimulationErrorProblem(ad, current.theta(), list(spec.keys), list(spec.params), mask)
-    rows = np.tile(prob.to_x(np.array([q.typical for q in spec.params])), (len(grid), 1))
-    i = list(spec.keys).index(k)
-    rows[:, i] = (np.array(grid) - prob.offs[i]) / prob.scale[i]
-    sse = np.sum(prob.batch(rows) ** 2, axis=1)  # the fit-part cost of each start, one batched replay
+    keys, params = list(spec.keys), list(spec.params)
+    axes = []
+    for kk, q in zip(keys, params, strict=True):
+        if kk == k:
+            axes.append(np.array(grid))
+        elif q.grid and not q.optional:
+            g = np.geomspace(q.lower, q.upper, q.grid) if q.lower > 0 else np.linspace(q.lower, q.upper, q.grid)
+            axes.append(np.unique(np.append(g, q.typical)))
+        else:
+            axes.append(np.array([q.typical]))
+    pts = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T
+    prob = SimulationErrorProblem(ad, current.theta(), keys, params, mask)
+    sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)  # the fit-part cost of each start, one batched replay
     sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
-    return {k: float(grid[int(np.argmin(sse))])}
-
+    best = pts[int(np.argmin(sse))]
+    return {kk: float(v) for kk, v, ax in zip(keys, best, axes, strict=True) if kk == k or len(ax) > 1}

@@ -150,11 +150,13 @@ LIBRARY: tuple[Effect, ...] = (
                   "eta_b = 1 - loss_back back-driven (it receives F_mesh / eta_b)",
            synthetic={SYNTHETIC: {"loss": (0.1, 0.3)}}, source=SOURCE),
     # Dahl force F_h and its presliding travel x_h = F_h / sigma_h; a travel of a few sensor counts or less is
-    # not a resolved presliding regime but a friction that sticks (Coulomb friction)
+    # not a resolved presliding regime but a friction that sticks (Coulomb friction); the travel is searched with
+    # the force for the fit's start (``grid``), since a loop fitted from a travel far from its own slides to the
+    # shortest one
     Effect("hysteresis", AT_LOAD, (
         Param("F_h", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0, lambda a: 0.03 * a.F_ref),
         Param("x_h", _lin, _x_min, lambda a: 0.3 * a.x_ref, lambda a: max(0.01 * a.x_ref, 2 * _x_min(a)),
-              lambda a: max(0.01 * a.x_ref, 2 * _x_min(a)), main=False)),
+              lambda a: max(0.01 * a.x_ref, 2 * _x_min(a)), main=False, grid=5)),
            enters="a Dahl force h on the load: dh/dt = sigma_h (v - |v| h / F_h), sigma_h = F_h / x_h",
            synthetic={SYNTHETIC: {"F_h": (0.8, 2.0)}}, source=SOURCE),
     Effect("inertia_error", "of the moving parts", (Param("rel", "-", -0.5, 1.0, 0.0, 0.05, tolerance=0.05),),
