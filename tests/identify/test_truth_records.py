@@ -147,3 +147,15 @@ def test_a_second_friction_term_is_also_fitted_with_the_first_creeping(tmp_path)
     assert got["coulomb_friction"]["F_c"] == pytest.approx(truth["main"]["coulomb_friction"], rel=0.15)
     assert got["stribeck_friction"]["F_s"] == pytest.approx(truth["main"]["stribeck_friction"], rel=0.15)
     assert got["coulomb_friction"]["x_stick"] == 0.0 and got["stribeck_friction"]["x_stick"] == 0.0
+
+
+def test_dahl_loop_started_on_a_grid_of_travels_is_named_not_coulomb_friction(tmp_path):
+    """Case 11024 (hysteresis, closed-loop sines replayed open loop): from one typical presliding travel the loop
+    slid to the shortest travel at twice the force and Coulomb friction was named; the travel is now searched
+    with the force for the start, and the loop is named with both within 15 %."""
+    res, truth = _identify(tmp_path, 11024, ("hysteresis",))
+    assert [e["name"] for e in res["effects"]] == ["hysteresis"], res["statements"]
+    got = res["effects"][0]["parameters"]
+    x_h = truth["planted"]["hysteresis"]["F_h"] / truth["planted"]["hysteresis"]["sigma"]
+    assert got["F_h"] == pytest.approx(truth["main"]["hysteresis"], rel=0.15)
+    assert got["x_h"] == pytest.approx(x_h, rel=0.15)

@@ -76,7 +76,8 @@ def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarra
             keep &= ~(is_on[p.dead_with] & (pts[:, i] != p.absent))
     keep[0] = True
     pts = pts[keep]
-    sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
+    with np.errstate(over="ignore"):  # a start that runs away squares to inf: never the best
+        sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
     sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
     on = np.any(pts[:, sw] != np.array([params[i].absent for i in sw]), axis=1) if sw else np.zeros(len(pts), bool)
     starts = []
@@ -114,7 +115,8 @@ def main_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.nda
             axes.append(np.array([q.typical]))
     pts = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T
     prob = SimulationErrorProblem(ad, current.theta(), keys, params, mask)
-    sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)  # the fit-part cost of each start, one batched replay
+    with np.errstate(over="ignore"):  # a start that runs away squares to inf: never the best
+        sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)  # the fit-part cost of each start, one batch
     sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
     best = pts[int(np.argmin(sse))]
     return {kk: float(v) for kk, v, ax in zip(keys, best, axes, strict=True) if kk == k or len(ax) > 1}
