@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter
-from vsa_gym.identify.effects import EffectSpec
+from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.fitting import SimulationErrorProblem, without_keys
 from vsa_gym.identify.result import FittedModel
 
@@ -22,6 +22,19 @@ SHAPE_GRID = 5
 #: replay a force 2x off runs away as far as one 4x off
 MAIN_SIZES: tuple[float, ...] = (0.25, 1.0, 4.0, 16.0)
 MAIN_SIZES_SHAPED: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
+
+
+def _range_grid(p: ParamSpec, n: int) -> np.ndarray:
+    """``n`` points over a parameter's range: log-spaced where it is positive, even otherwise."""
+    return np.geomspace(p.lower, p.upper, n) if p.lower > 0 else np.linspace(p.lower, p.upper, n)
+
+
+def _batch_cost(prob: SimulationErrorProblem, pts: np.ndarray) -> np.ndarray:
+    """Fit-part cost of each start (rows of ``pts``, in parameter units) from one batched replay; a start whose
+    replay runs away or diverges costs ``inf``, so it is never the best."""
+    with np.errstate(over="ignore"):
+        sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
+    return np.where(np.isfinite(sse), sse, np.inf)
 
 
 def shape_variants(ad: Adapter, current: FittedModel, fm: FittedModel, spec: EffectSpec,
@@ -56,9 +69,8 @@ def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarra
     axes = []
     for k, p in zip(keys, params, strict=True):
         if p.optional and (switches or not p.switch):
-            n_g = p.grid or SHAPE_GRID
-            g = np.geomspace(p.lower, p.upper, n_g) if p.lower > 0 else np.linspace(p.lower, p.upper, n_g)
-            axes.append(np.unique(np.append(g, [p.typical, p.absent])))  # a switch's "off" too
+            # the typical value and, for a switch, "off" too
+            axes.append(np.unique(np.append(_range_grid(p, p.grid or SHAPE_GRID), [p.typical, p.absent])))
         elif p.optional:
             axes.append(np.array([p.absent]))
         elif p.main:
@@ -76,9 +88,7 @@ def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarra
             keep &= ~(is_on[p.dead_with] & (pts[:, i] != p.absent))
     keep[0] = True
     pts = pts[keep]
-    with np.errstate(over="ignore"):  # a start that runs away squares to inf: never the best
-        sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)
-    sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
+    sse = _batch_cost(prob, pts)
     on = np.any(pts[:, sw] != np.array([params[i].absent for i in sw]), axis=1) if sw else np.zeros(len(pts), bool)
     starts = []
     for group in ((~on, on) if sw and switches else (~on,)):
@@ -98,25 +108,22 @@ def main_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.nda
     slid to the shortest travel, a Coulomb friction of twice the loop's force (truth case 11024)."""
     k, p = next((k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main)
     step = p.typical - p.absent
-    sizes = MAIN_SIZES_SHAPED if any(q.grid and not q.optional for q in spec.params) else MAIN_SIZES
+    keys, params = list(spec.keys), list(spec.params)
+    searched = {kk for kk, q in zip(keys, params, strict=True) if q.grid and not q.optional}  # with the main one
+    sizes = MAIN_SIZES_SHAPED if searched else MAIN_SIZES
     grid = [p.absent + f * step for f in sizes] + [p.absent - f * step for f in sizes]
     grid = [v for v in grid if p.lower + 0.02 * (p.upper - p.lower) < v < p.upper - 0.02 * (p.upper - p.lower)]
     if len(grid) < 2:
         return {}
-    keys, params = list(spec.keys), list(spec.params)
     axes = []
     for kk, q in zip(keys, params, strict=True):
         if kk == k:
             axes.append(np.array(grid))
-        elif q.grid and not q.optional:
-            g = np.geomspace(q.lower, q.upper, q.grid) if q.lower > 0 else np.linspace(q.lower, q.upper, q.grid)
-            axes.append(np.unique(np.append(g, q.typical)))
+        elif kk in searched:
+            axes.append(np.unique(np.append(_range_grid(q, q.grid), q.typical)))
         else:
             axes.append(np.array([q.typical]))
     pts = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T
     prob = SimulationErrorProblem(ad, current.theta(), keys, params, mask)
-    with np.errstate(over="ignore"):  # a start that runs away squares to inf: never the best
-        sse = np.sum(prob.batch(prob.to_x(pts)) ** 2, axis=1)  # the fit-part cost of each start, one batch
-    sse = np.where(np.isfinite(sse), sse, np.inf)  # a start whose replay diverged is never the best
-    best = pts[int(np.argmin(sse))]
-    return {kk: float(v) for kk, v, ax in zip(keys, best, axes, strict=True) if kk == k or len(ax) > 1}
+    best = pts[int(np.argmin(_batch_cost(prob, pts)))]
+    return {kk: float(v) for kk, v in zip(keys, best, strict=True) if kk == k or kk in searched}
