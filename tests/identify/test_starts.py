@@ -37,9 +37,9 @@ def test_a_shape_dead_with_its_switch_is_held_on_every_point_where_the_switch_is
     seen = []
     original = SimulationErrorProblem.batch
 
-    def spy(self, X):
+    def spy(self, X, rows=None):
         seen.append(self.to_p(X))
-        return original(self, X)
+        return original(self, X, rows)
 
     monkeypatch.setattr(SimulationErrorProblem, "batch", spy)
     off, on = starts.shape_starts(ad, held, spec, masks["fit"])

@@ -75,9 +75,19 @@ class Adapter:
         return sensor_specs(self.outputs[0].column, scale, self.dt, float(self.t[-1] - self.t[0]),
                             self.outputs[0].resolution)
 
-    def simulate(self, theta: Theta, n: int) -> np.ndarray:
-        """Measured outputs ``(T, n, n_outputs)`` of ``n`` candidate models."""
-        return self._measure(theta, self.simulate_physical(theta, n), 0, len(self.t))
+    def simulate(self, theta: Theta, n: int, *, until: int | None = None,
+                 rows: np.ndarray | None = None) -> np.ndarray:
+        """Measured outputs ``(T, n, n_outputs)`` of ``n`` candidate models.
+
+        ``until``: only the samples before it are wanted (a fit part that ends before the record does); the
+        later ones come back NaN, and a device adapter need not simulate them.  ``rows``: only these of the
+        ``n`` models are wanted, ``(T, len(rows), n_outputs)``; each comes back exactly as it would in the
+        whole batch (a device adapter chooses its integration step for all ``n``).  This base class
+        simulates everything and cuts."""
+        y = self._measure(theta, self.simulate_physical(theta, n), 0, len(self.t))
+        if until is not None:
+            y[until:] = np.nan
+        return y if rows is None else y[:, np.asarray(rows)]
 
     def _measure(self, theta: Theta, x: np.ndarray, a: int, b: int) -> np.ndarray:
         """The sensors (measurement model, and the sensor effects of the first output) applied to physical
@@ -92,6 +102,11 @@ class Adapter:
 def theta_column(theta: Theta, key: str, n: int, default: float = 0.0) -> np.ndarray:
     v = theta.get(key)
     return np.full(n, default) if v is None else np.broadcast_to(np.asarray(v, dtype=np.float64), (n,))
+
+
+def theta_rows(theta: Theta, n: int, rows: np.ndarray) -> dict[str, np.ndarray]:
+    """The candidates ``rows`` of an ``n``-row ``theta`` (a scalar entry stands for every row)."""
+    return {k: np.broadcast_to(np.asarray(v, dtype=np.float64), (n,))[rows] for k, v in theta.items()}
 
 
 
@@ -116,4 +131,4 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["SENSOR_KEYS", "Adapter", "Theta", "make_adapter", "theta_column"]
+__all__ = ["SENSOR_KEYS", "Adapter", "Theta", "make_adapter", "theta_column", "theta_rows"]

@@ -20,7 +20,13 @@ from vsa_gym.identify.result import FittedModel, acf, output_metrics
 
 
 class SimulationErrorProblem:
-    """Simulation-error least squares over some keys on one adapter."""
+    """Simulation-error least squares over some keys on one adapter.
+
+    The Jacobian is by forward differences from one batched replay of the point and its ``k`` steps.  A
+    residual asked for alone (scipy's trial step, which it may reject) replays only the point, at the
+    substeps of that whole batch, and the Jacobian at an accepted point then replays only the steps: the
+    residual and Jacobian are bit for bit those of the one batch, without replaying steps that are never
+    used.  Replays stop at the end of the fit part (``mask``)."""
 
     def __init__(self, ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[ParamSpec],
                  mask: np.ndarray) -> None:
@@ -28,7 +34,10 @@ class SimulationErrorProblem:
         self.scale = np.array([abs(s.typical - s.absent) or abs(s.typical) or 1.0 for s in specs])
         self.offs = np.array([s.absent for s in specs])
         self.sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(ad.measured.shape[1])])
-        self._cache: tuple[bytes, np.ndarray] | None = None
+        used = np.flatnonzero(mask)
+        self.until = int(used[-1]) + 1 if used.size else 0
+        self._cache: tuple[bytes, tuple[np.ndarray, np.ndarray]] | None = None
+        self._residual: tuple[bytes, np.ndarray] | None = None
 
     def to_p(self, x: np.ndarray) -> np.ndarray:
         return self.offs + self.scale * x
@@ -41,20 +50,34 @@ class SimulationErrorProblem:
         hi = self.to_x(np.array([s.upper for s in self.specs]))
         return lo, hi
 
-    def batch(self, X: np.ndarray) -> np.ndarray:
-        """Residuals (normalised, fit part) of rows ``X`` (n, k) -> (n, N)."""
+    def batch(self, X: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """Residuals (normalised, fit part) of rows ``X`` (n, k) -> (n, N); of only ``rows`` of them, replayed
+        as in the whole batch, with ``rows``."""
         n = X.shape[0]
         theta = {k: np.full(n, v) for k, v in self.fixed.items()}
         P = self.offs + self.scale * X
         for i, k in enumerate(self.keys):
             theta[k] = P[:, i]
-        y = self.ad.simulate(theta, n)
+        y = self.ad.simulate(theta, n, until=self.until, rows=rows)
         r = (y[self.mask] - self.ad.measured[self.mask][:, None, :]) / self.sd
         r = np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
-        return np.transpose(r, (1, 0, 2)).reshape(n, -1)
+        return np.transpose(r, (1, 0, 2)).reshape(y.shape[1], -1)
+
+    def _points(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The point and its forward-difference steps (a step that would cross the upper bound goes down)."""
+        lo, hi = self.bounds()
+        h = 1e-3 * np.maximum(1.0, np.abs(x))
+        step = np.where(x + h > hi, -h, h)
+        return np.vstack([x, x + np.diag(step)]), step
 
     def fun(self, x: np.ndarray) -> np.ndarray:
-        return self.residuals_and_jacobian(x)[0]
+        key = x.tobytes()
+        if self._cache is not None and self._cache[0] == key:
+            return self._cache[1][0]
+        if self._residual is None or self._residual[0] != key:
+            X, _ = self._points(x)
+            self._residual = (key, self.batch(X, rows=np.array([0]))[0])
+        return self._residual[1]
 
     def jac(self, x: np.ndarray) -> np.ndarray:
         return self.residuals_and_jacobian(x)[1]
@@ -62,16 +85,15 @@ class SimulationErrorProblem:
     def residuals_and_jacobian(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         key = x.tobytes()
         if self._cache is not None and self._cache[0] == key:
-            return self._cache[1]  # type: ignore[return-value]
-        lo, hi = self.bounds()
-        h = 1e-3 * np.maximum(1.0, np.abs(x))
-        step = np.where(x + h > hi, -h, h)
-        X = np.vstack([x, x + np.diag(step)])
-        R = self.batch(X)
+            return self._cache[1]
+        X, step = self._points(x)
+        if self._residual is not None and self._residual[0] == key and len(X) > 1:
+            R = np.vstack([self._residual[1][None, :], self.batch(X, rows=np.arange(1, len(X)))])
+        else:
+            R = self.batch(X)
         J = ((R[1:] - R[0]) / step[:, None]).T
-        out = (R[0], J)
-        self._cache = (key, out)  # type: ignore[assignment]
-        return out
+        self._cache = (key, (R[0], J))
+        return self._cache[1]
 
 
 def fit_model(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[ParamSpec], init: dict[str, float],

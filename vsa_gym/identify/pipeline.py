@@ -459,7 +459,7 @@ class Identifier:
             if default is None:
                 default = theta0.get(k, 0.0)
             theta[k] = np.array([r.get(k, default) for r in rows])
-        y = ad.simulate(theta, n)
+        y = ad.simulate(theta, n, until=int(np.flatnonzero(mask)[-1]) + 1 if mask.any() else None)
         sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(y.shape[2])])
         Y = (y[mask] / sd).transpose(1, 0, 2).reshape(n, -1)
         r = ((ad.measured[mask] / sd).reshape(-1) - Y[0])

@@ -12,7 +12,7 @@ import numpy as np
 from vsa_gym.devices.drive import model as drive
 from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
 from vsa_gym.devices.drive.effects import ZETA_COMPLIANCE
-from vsa_gym.identify.adapters import SENSOR_KEYS, Adapter, Theta, theta_column
+from vsa_gym.identify.adapters import SENSOR_KEYS, Adapter, Theta, theta_column, theta_rows
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.library import physics_specs
 from vsa_gym.identify.record import Record
@@ -233,12 +233,18 @@ class DriveAdapter(Adapter):
             return None
         return np.stack([theta_column(theta, k, n) for k in SENSOR_KEYS], axis=1)
 
-    def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray, theta: Theta | None = None) -> np.ndarray:
+    def substeps(self, P: np.ndarray) -> int:
+        """RK4 substeps per sample that the fastest mode among rows ``P`` asks for, at twice the record's
+        top speed (:func:`vsa_gym.devices.drive.model.substeps`)."""
+        return drive.substeps(P, self.dt, vmax=getattr(self, "v_ref", 1.0) * 2)
+
+    def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray, theta: Theta | None = None,
+                 n_sub: int | None = None) -> np.ndarray:
         """Physical observables ``(b - a, n, n_outputs)`` of rows ``P`` over rows ``a:b`` from states ``x0``
-        (``theta``: the candidate's sensor terms, which a closed loop reads)."""
+        (``theta``: the candidate's sensor terms, which a closed loop reads; ``n_sub``: the substeps, by
+        default those of ``P``'s fastest mode)."""
         y = drive.simulate(P, self.u[a:b], self.dt, x0=x0, fext=self.fext[a:b], ref=self.ref[a:b], ff=self.ff[a:b],
-                           controller=self.ctrl,
-                           n_sub=drive.substeps(P, self.dt, vmax=getattr(self, "v_ref", 1.0) * 2),
+                           controller=self.ctrl, n_sub=self.substeps(P) if n_sub is None else n_sub,
                            sensor_at_motor=self.loop_at_motor, sensor_bias=self.loop_bias,
                            sensor=self._loop_sensor(theta, P.shape[0]), diverged="nan")  # the fit skips such rows
         return y[:, :, self.obs]
@@ -377,19 +383,35 @@ class DriveAdapter(Adapter):
         raw = np.interp(ta, self.t, self._x_meas) - self.measurement[0].bias - offset
         return self._start_states(P, a, raw / (1.0 + gain), np.interp(ta, self.t, self._v_meas) / (1.0 + gain))
 
-    def simulate(self, theta: Theta, n: int) -> np.ndarray:
-        """Measured outputs ``(T, n, n_outputs)``; each segment (or shooting window) is replayed on its own."""
+    def simulate(self, theta: Theta, n: int, *, until: int | None = None,
+                 rows: np.ndarray | None = None) -> np.ndarray:
+        """Measured outputs ``(T, n, n_outputs)``; each segment (or shooting window) is replayed on its own.
+
+        ``until`` / ``rows`` as in :meth:`Adapter.simulate`: samples from ``until`` on are not simulated
+        (NaN), and only ``rows`` are rolled out, with the substeps of all ``n`` (so a row comes back bit for
+        bit as in the whole batch: a fit's residual and its finite-difference Jacobian share one step)."""
         P = self.param_matrix(theta, n)
-        out = np.empty((len(self.t), n, len(self.outputs)))
+        n_sub = self.substeps(P)
+        if rows is not None:
+            rows = np.asarray(rows)
+            P, theta, n = P[rows], theta_rows(theta, n, rows), len(rows)
+        end = len(self.t) if until is None else min(int(until), len(self.t))
+        out = np.full((len(self.t), n, len(self.outputs)), np.nan)
         if self.shooting:
             for a, b in self._windows():
-                out[a:b] = self._measure(theta, self._rollout(P, a, b, self._shoot_states(theta, P, a)), a, b)
+                if a < end:
+                    b = min(b, end)
+                    out[a:b] = self._measure(theta, self._rollout(P, a, b, self._shoot_states(theta, P, a),
+                                                                  n_sub=n_sub), a, b)
             return out
         for a, b in self.segments:
+            if a >= end:
+                continue
             x0 = self._start_states(P, a, theta=theta)
             if self.init_window:
                 x0 = self._fit_start_state(theta, P, a, x0)
-            out[a:b] = self._measure(theta, self._rollout(P, a, b, x0, theta), a, b)
+            b = min(b, end)
+            out[a:b] = self._measure(theta, self._rollout(P, a, b, x0, theta, n_sub), a, b)
         return out
 
     def simulate_physical(self, theta: Theta, n: int) -> np.ndarray:
