@@ -303,8 +303,17 @@ def _pd_gains(f_n: float, zeta: float, m: float, b: float, k_u: float, sat: floa
             "zeta": float(zeta)}
 
 
-def draw_case(seed: int, effects: tuple[str, ...] = ()) -> Case:
-    """Draw axis, experiment, sensor and the magnitudes of ``effects`` from ``seed`` (``()``: nominal control)."""
+def draw_case(seed: int, effects: tuple[str, ...] = (), *, rate: float | None = None,
+              duration: float | None = None) -> Case:
+    """Draw axis, experiment, sensor and the magnitudes of ``effects`` from ``seed`` (``()``: nominal control).
+
+    ``rate`` (Hz) / ``duration`` (s) replace the drawn sample rate / length (e.g. 1000 and 20 for the time
+    target of an identification, per 20 s at 1 kHz); the rest is drawn from ``seed`` as always, the designs
+    that depend on the rate (loop bandwidth, compliance mode) bounded by the rate given."""
+    for name, v in (("rate", rate), ("duration", duration)):
+        if v is not None and not v > 0:
+            raise ValueError(f"draw_case: {name} must be > 0, got {v}")
+    given_rate, given_duration = rate, duration
     effects = tuple(effects)
     bad = [e for e in effects if e not in EFFECTS]
     if bad or len(set(effects)) != len(effects):
@@ -319,6 +328,7 @@ def draw_case(seed: int, effects: tuple[str, ...] = ()) -> Case:
     b_nom = b_mech + mot["b_emf"]
     rate = float(rng.choice(RATES))
     duration = float(np.round(rng.uniform(5.0, 20.0), 2))
+    rate, duration = float(given_rate or rate), float(given_duration or duration)  # the draws are made either way
     dt = 1.0 / rate
     t = np.arange(int(round(duration * rate))) * dt
     # a constant load force would run an open-loop axis away: such axes are tested in closed loop

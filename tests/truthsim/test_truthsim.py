@@ -172,6 +172,22 @@ def test_determinism(tmp_path) -> None:
     assert p1.with_suffix(".json").read_bytes() == p2.with_suffix(".json").read_bytes()
 
 
+@pytest.mark.parametrize("effects", [("backlash",), ("transmission_compliance", "sensor_delay"), ()])
+def test_a_given_rate_and_duration_keep_the_rest_of_the_draw(effects, tmp_path) -> None:
+    """``draw_case(rate=, duration=)`` (the timing set of benchmarks/identify_truth.py) changes the sampling
+    and nothing drawn before it; the record is valid, and a rate or length <= 0 is refused."""
+    for seed in (11049, 11000, 7015):
+        drawn = draw_case(seed, effects)
+        fixed = draw_case(seed, effects, rate=1000.0, duration=20.0)
+        assert (fixed.rate, fixed.duration, fixed.n) == (1000.0, 20.0, 20000)
+        assert (fixed.axis, fixed.amplifier, fixed.loop, fixed.replay, fixed.excitation, fixed.x0) == \
+            (drawn.axis, drawn.amplifier, drawn.loop, drawn.replay, drawn.excitation, drawn.x0)
+    assert check_record(write_case(fixed, tmp_path)) == []
+    for bad in ({"rate": 0.0}, {"duration": -1.0}):
+        with pytest.raises(ValueError, match="must be > 0"):
+            draw_case(1, effects, **bad)
+
+
 COMBOS = [(), *[(e,) for e in EFFECTS], ("coulomb_friction", "force_offset"), ("backlash", "coulomb_friction"),
           ("gearbox_efficiency", "viscous_friction"), ("transmission_compliance", "gearbox_efficiency")]
 
