@@ -11,7 +11,9 @@ faster; :mod:`benchmarks.checkouts`).  Figures (best of the rounds):
   2 ms at 8 RK4 substeps, per row and substep (4 right-hand sides), for the nominal drive with a 0.19 ms current
   loop and with Coulomb friction, a Stribeck curve, a compliant shaft, a backlash, a mesh loss or a Dahl loop;
 * ``identify truth 5040 s`` (``--identify``): ``vsa_gym.identify.pipeline.identify`` of the independent truth
-  simulator's case 5040 (a sensor offset on an open-loop linear motor, 500 Hz, 11.8 s; ``tests.truthsim``).
+  simulator's case 5040 (a sensor offset on an open-loop linear motor, 500 Hz, 11.8 s; ``tests.truthsim``), and
+  ``identify truth 11000 s`` of case 11000 (Coulomb friction on an open-loop ball screw, 200 Hz, 14.3 s: the
+  friction's stick travel makes its candidates stiff).
 """
 
 from __future__ import annotations
@@ -58,11 +60,12 @@ def measure() -> dict[str, float]:
         from tests.truthsim.scenarios import draw_case, write_case
         from vsa_gym.identify.pipeline import identify
 
-        with tempfile.TemporaryDirectory() as tmp:
-            csv = write_case(draw_case(5040, ("sensor_offset",)), tmp)
-            t0 = time.perf_counter()
-            identify(str(csv))
-            out["identify truth 5040 s"] = time.perf_counter() - t0
+        for seed, effect in ((5040, "sensor_offset"), (11000, "coulomb_friction")):
+            with tempfile.TemporaryDirectory() as tmp:
+                csv = write_case(draw_case(seed, (effect,)), tmp)
+                t0 = time.perf_counter()
+                identify(str(csv))
+                out[f"identify truth {seed} s"] = time.perf_counter() - t0
     out["_file"] = vsa_gym.__file__  # type: ignore[assignment]
     return out
 
