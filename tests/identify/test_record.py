@@ -87,3 +87,28 @@ def test_missing_file_and_mistyped_shipped_name(tmp_path, capsys):
     assert "file not found" in capsys.readouterr().err
     (problem,) = check_record("emsp")
     assert "file not found: emsp" in problem and "did you mean emps?" in problem and "ced-1" in problem
+
+
+def test_direct_drive_declaration_is_checked_and_drops_the_transmission_effects(tmp_path):
+    """``model.transmission``: 'direct' (a linear motor) takes backlash, compliance and mesh loss out of the
+    candidates; another value, or a direct drive given transmission parameters, is named as a problem."""
+    from vsa_gym.identify.adapters import make_adapter
+
+    path, table, meta = _good(tmp_path)
+    transmission = {"backlash", "transmission_compliance", "gearbox_efficiency"}
+    assert transmission <= set(make_adapter(load_record(path)).effects)  # 'geared' by default
+    meta = json.loads(json.dumps(meta))
+    meta["model"]["transmission"] = "direct"
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    assert check_record(path) == []
+    effects = set(make_adapter(load_record(path)).effects)
+    assert not transmission & effects and {"coulomb_friction", "inertia_error"} <= effects
+    meta["model"]["transmission"] = "belt"
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    assert check_record(path) == ["model.transmission: 'belt' is not 'geared' or 'direct'"]
+    assert main(["data", "check", str(path)]) == 1
+    meta["model"]["transmission"] = "direct"
+    meta["model"]["params"]["backlash"] = 1e-4
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    with pytest.raises(ValueError, match="'direct' but model.params gives transmission parameters backlash = 0.0001"):
+        make_adapter(load_record(path))

@@ -95,6 +95,8 @@ def sidecar(case: Case) -> dict[str, Any]:
                               "reference": "ref", "output": "u"}
     meta["replay"] = case.replay
     meta["model"] = {"motion": case.motion, "params": dict(case.nominal), "free": {}}
+    if case.axis == "linear_motor":  # a user knows a direct drive has no transmission, and says so
+        meta["model"]["transmission"] = "direct"
     meta["initial_state"] = {"position": case.x0, "velocity": 0.0}
     # the amplifier starts from rest (zero current) with the record; half the users say so
     # (initial_state.force, docs/measured-data.md), half leave the identifier's default

@@ -9,7 +9,8 @@
    replay per iteration), with 95 % confidence intervals from the Jacobian, inflated
    by the residual's lag-1 autocorrelation (effective sample size).
 3. Accept an effect only if (a) the validation error drops by ``margin``, (b) a further effect
-   removes ``min_share_next`` of the misfit above the estimated noise floor, (c) BIC drops,
+   removes ``min_share_next`` (``min_share_fit`` judged on the fit part) of the misfit above the estimated
+   noise floor, (c) BIC drops,
    (d) the CI of its main parameter excludes "absent" and the parameter is beyond the nominal
    model's tolerance, (e) no shape parameter is stuck at a bound.  Where the validation part cannot tell
    the candidate from the model before (their replays differ there by less than the noise floor: a closed loop
@@ -78,11 +79,14 @@ class Identifier:
 
     ``min_share``: share of the current model's excess validation misfit (above the noise floor) a
     first effect must remove (0: off; a first effect near the noise floor of a white-noise record is
-    real), ``min_share_next`` a further one; ``floor_factor``: no further effect is added to a model
-    whose validation NRMSE is already within this factor of the noise floor; ``min_size_next``: a further
-    effect's main parameter must be at least this share of the size its library entry calls typical (a
-    friction of 0.75 % of the peak drive force, a mesh loss of 1.25 %, a sensor offset of 0.5 % of the
-    position spread at the default 0.25): smaller, it is detail of the model's structure, not a finding;
+    real), ``min_share_next`` a further one (more than half: most of what is left), ``min_share_fit``
+    any effect judged on the fit part, where the validation part cannot tell it from the model before
+    (stricter: the fit part's residual is that of the fitted parameters themselves); ``floor_factor``: no
+    further effect is added to a model whose validation NRMSE is already within this factor of the noise
+    floor; ``min_size_next``: a further effect's main parameter must be at least this share of the size
+    its library entry calls typical (a friction of 0.75 % of the peak drive force, a mesh loss of 1.25 %,
+    a sensor offset of 0.5 % of the position spread at the default 0.25): smaller, it is detail of the
+    model's structure, not a finding;
     ``ambiguity``: look-alikes validating within this relative difference of the best are reported
     as ambiguous; ``shooting``: ``"auto"`` (multiple shooting when a full open-loop replay runs
     away), ``"off"``, or a window length in seconds.
@@ -95,7 +99,8 @@ class Identifier:
     max_nfev: int = 25
     replay: str | None = None
     min_share: float = 0.0
-    min_share_next: float = 0.7
+    min_share_next: float = 0.5
+    min_share_fit: float = 0.7
     floor_factor: float = 3.0
     min_size_next: float = 0.25
     ambiguity: float = 0.01
@@ -396,7 +401,8 @@ class Identifier:
             reasons.append(f"{part} error {new:.4g} vs {cur:.4g} (needs -{100 * self.margin:.0f} %)")
         # judged on the fit part (the validation part cannot see it), an effect must remove most of the misfit
         # above the noise floor even as the first one: the strict share stands in for the missing validation
-        need = self.min_share if not current.effects and part == "validation" else self.min_share_next
+        need = (self.min_share_fit if part != "validation"
+                else self.min_share_next if current.effects else self.min_share)
         if cand.share < need:
             reasons.append(f"removes {100 * cand.share:.0f} % of the misfit above the noise floor "
                            f"(needs {100 * need:.0f} %)")

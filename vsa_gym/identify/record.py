@@ -204,6 +204,12 @@ def check_record(path: str | Path, table: pd.DataFrame | None = None,
     if not meta.get("experiment"):
         problems.append("sidecar 'experiment' is missing or empty")
 
+    model = meta.get("model", {})
+    if isinstance(model, Mapping) and "transmission" in model and (
+            device != "drive" or model["transmission"] not in ("geared", "direct")):
+        problems.append(f"model.transmission: {model['transmission']!r} is not 'geared' or 'direct'"
+                        if device == "drive" else f"model.transmission is a drive field; device {device!r} has none")
+
     # time
     tspec = meta.get("time", {"column": "t", "unit": "s"})
     tcol = tspec.get("column", "t")

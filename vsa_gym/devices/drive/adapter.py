@@ -47,6 +47,18 @@ class DriveAdapter(Adapter):
         model = record.model
         self.params = drive.DriveParams(**model.get("params", {}))
         self.rot = model.get("motion", "translational") == "rotational"
+        transmission = model.get("transmission", "geared")
+        if transmission not in ("geared", "direct"):
+            raise ValueError(f"model.transmission must be 'geared' (a transmission between motor and load: gear, "
+                             f"screw, belt; the default) or 'direct' (the motor drives the load itself, e.g. a "
+                             f"linear motor), got {transmission!r}")
+        #: a transmission between motor and load: its effects (backlash, compliance, mesh loss) are candidates
+        self.geared = transmission == "geared"
+        given = model.get("params", {})
+        clash = [k for k in ("k_c", "backlash", "eta", "eta_b") if k in given and given[k] not in (0, 0.0, 1, 1.0)]
+        if not self.geared and clash:
+            raise ValueError(f"model.transmission is 'direct' but model.params gives transmission parameters "
+                             f"{', '.join(f'{k} = {given[k]!r}' for k in clash)}")
         if self.params.b_emf > self.params.b:
             raise ValueError(f"model.params: b_emf = {self.params.b_emf:g} (back-EMF part of b) exceeds b = "
                              f"{self.params.b:g}; b is the whole viscous damping, back-EMF included")

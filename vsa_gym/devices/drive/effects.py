@@ -72,6 +72,12 @@ ZETA_COMPLIANCE = 0.05
 AT_LOAD = "at the load"
 IN_TRANSMISSION = "in the transmission"
 
+
+def _geared(a: Any) -> bool:
+    """Whether the record's drive has a transmission between motor and load (``model.transmission``): a direct
+    drive (a linear motor) has no mesh, gap or shaft to name."""
+    return bool(getattr(a, "geared", True))
+
 LIBRARY: tuple[Effect, ...] = (
     Effect("coulomb_friction", AT_LOAD, (Param("F_c", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0,
                                                lambda a: 0.03 * a.F_ref),
@@ -125,7 +131,7 @@ LIBRARY: tuple[Effect, ...] = (
            enters="a dead zone of total width `width` in the transmission between motor and load (one-sided "
                   "contact of mode f_contact and damping ratio zeta_contact on the reduced mass); the motor starts "
                   "at `start` x width / 2 from the middle of the gap",
-           when=lambda a: "backlash" not in a.free,
+           when=lambda a: _geared(a) and "backlash" not in a.free,
            synthetic={SYNTHETIC: {"width": (2e-3, 5e-3)}}, source=SOURCE),
     Effect("transmission_compliance", IN_TRANSMISSION, (
         Param("compliance", lambda a: f"{a.units[0]}/{a.units[1]}", 0.0, lambda a: 1.0 / (_k_typ(a) / 25), 0.0,
@@ -136,7 +142,7 @@ LIBRARY: tuple[Effect, ...] = (
               optional=True)),
            enters="a spring of stiffness 1 / compliance between motor and load (a rigid drive: k_c = 0), damped "
                   "at the ratio zeta on the reduced mass m_r = frac_m (1 - frac_m) m",
-           when=lambda a: float(a.params.k_c) == 0.0,
+           when=lambda a: _geared(a) and float(a.params.k_c) == 0.0,
            synthetic={SYNTHETIC: {"compliance": (1 / (4 * np.pi**2 * 8.0**2 * 0.5),
                                                  1 / (4 * np.pi**2 * 4.0**2 * 0.5))}}, source=SOURCE),
     Effect("spring_stiffness_drift", "in the transmission spring", (Param("drift", "-", -0.5, 0.5, 0.0, 0.05),),
@@ -147,7 +153,7 @@ LIBRARY: tuple[Effect, ...] = (
         Param("loss", "-", 0.0, 0.7, 0.0, 0.05),
         Param("loss_back", "-", 0.0, 0.8, 0.0, 0.05, main=False, check_bound=False)),
            enters="mesh efficiency eta = 1 - loss when the motor drives (the load receives eta F_mesh), "
-                  "eta_b = 1 - loss_back back-driven (it receives F_mesh / eta_b)",
+                  "eta_b = 1 - loss_back back-driven (it receives F_mesh / eta_b)", when=_geared,
            synthetic={SYNTHETIC: {"loss": (0.1, 0.3)}}, source=SOURCE),
     # Dahl force F_h and its presliding travel x_h = F_h / sigma_h; a travel of a few sensor counts or less is
     # not a resolved presliding regime but a friction that sticks (Coulomb friction); the travel is searched with
