@@ -15,7 +15,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.truthsim.scenarios import draw_case, write_case
+from tests.truthsim.scenarios import MAIN, draw_case, write_case
 from vsa_gym.cli import main
 from vsa_gym.identify.pipeline import identify
 
@@ -28,6 +28,19 @@ def _identify(tmp_path, seed: int, effects: tuple[str, ...]) -> tuple[dict, dict
     assert main(["identify", str(csv), "--json", str(out)]) == 0
     truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
     return json.loads(out.read_text()), truth
+
+
+def _pair_named_within_15_percent(tmp_path, seed: int, effects: tuple[str, str], candidates: tuple[str, ...]):
+    """Identify case ``seed`` (``effects`` planted) among ``candidates``: exactly the planted pair is named, each
+    main parameter within 15 %; returns the result."""
+    csv = write_case(draw_case(seed, effects), tmp_path)
+    truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
+    res = identify(str(csv), candidates=candidates)
+    named = {e["name"]: e["parameters"] for e in res.effects}
+    assert set(named) == set(effects), res.statements()
+    for e in effects:
+        assert named[e][MAIN[e]] == pytest.approx(truth["main"][e], rel=0.15), e
+    return res
 
 
 def test_planted_coulomb_friction_is_named_alone_within_15_percent(tmp_path):
@@ -125,13 +138,8 @@ def test_runner_up_branch_names_mesh_loss_and_viscous_friction_a_sensor_gain_sto
     alone and no second effect removed what it left; the branch from round one's runner-up names both planted
     effects, within 15 %, and replaces the gain.  The candidates are limited to the three that matter (the full
     catalogue takes minutes on this 5 kHz record and chose the same way)."""
-    csv = write_case(draw_case(5052, ("gearbox_efficiency", "viscous_friction")), tmp_path)
-    truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
-    res = identify(str(csv), candidates=("sensor_gain", "viscous_friction", "gearbox_efficiency"))
-    named = {e["name"]: e["parameters"] for e in res.effects}
-    assert set(named) == {"viscous_friction", "gearbox_efficiency"}, res.statements()
-    assert named["viscous_friction"]["b"] == pytest.approx(truth["main"]["viscous_friction"], rel=0.15)
-    assert named["gearbox_efficiency"]["loss"] == pytest.approx(truth["main"]["gearbox_efficiency"], rel=0.15)
+    res = _pair_named_within_15_percent(tmp_path, 5052, ("gearbox_efficiency", "viscous_friction"),
+                                        ("sensor_gain", "viscous_friction", "gearbox_efficiency"))
     gain = [c for c in res.candidates if c.name == "sensor_gain" and c.round == 1]
     assert gain and not gain[0].accepted and "runner-up viscous_friction" in gain[0].reason
 
@@ -166,13 +174,8 @@ def test_backlash_beside_coulomb_friction_is_named_when_it_removes_most_of_what_
     the gap removes 65 % of the validation misfit above the noise floor.  A further effect needs most of what is
     left (``min_share_next`` 0.5; at 0.7 the gap was rejected and the friction named alone, 14 % off); both are
     named within 15 %.  The candidates are the friction and the transmission's look-alikes."""
-    csv = write_case(draw_case(7050, ("backlash", "coulomb_friction")), tmp_path)
-    truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
-    res = identify(str(csv), candidates=("coulomb_friction", "backlash", "transmission_compliance"))
-    named = {e["name"]: e["parameters"] for e in res.effects}
-    assert set(named) == {"coulomb_friction", "backlash"}, res.statements()
-    assert named["backlash"]["width"] == pytest.approx(truth["main"]["backlash"], rel=0.15)
-    assert named["coulomb_friction"]["F_c"] == pytest.approx(truth["main"]["coulomb_friction"], rel=0.15)
+    res = _pair_named_within_15_percent(tmp_path, 7050, ("backlash", "coulomb_friction"),
+                                        ("coulomb_friction", "backlash", "transmission_compliance"))
     gap = next(c for c in res.candidates if c.name == "backlash" and c.accepted)
     assert 0.5 <= gap.share < 0.7
 
@@ -183,11 +186,6 @@ def test_inertia_error_and_coulomb_friction_on_a_direct_drive_are_not_a_mesh_los
     61 % mesh loss was named alone on such records (7051, 13051).  The truth simulator's sidecar says the drive
     is direct (``model.transmission``), so the mesh loss is no candidate even where asked for, and both planted
     effects are named within 15 %.  The candidates are limited to the four that matter."""
-    csv = write_case(draw_case(13051, ("inertia_error", "coulomb_friction")), tmp_path)
-    truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
-    res = identify(str(csv), candidates=("gearbox_efficiency", "sensor_gain", "inertia_error", "coulomb_friction"))
-    named = {e["name"]: e["parameters"] for e in res.effects}
-    assert set(named) == {"inertia_error", "coulomb_friction"}, res.statements()
-    assert named["inertia_error"]["rel"] == pytest.approx(truth["main"]["inertia_error"], rel=0.15)
-    assert named["coulomb_friction"]["F_c"] == pytest.approx(truth["main"]["coulomb_friction"], rel=0.15)
+    res = _pair_named_within_15_percent(tmp_path, 13051, ("inertia_error", "coulomb_friction"),
+                                        ("gearbox_efficiency", "sensor_gain", "inertia_error", "coulomb_friction"))
     assert not any(c.name == "gearbox_efficiency" for c in res.candidates)
