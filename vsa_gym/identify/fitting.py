@@ -34,8 +34,7 @@ class SimulationErrorProblem:
         self.scale = np.array([abs(s.typical - s.absent) or abs(s.typical) or 1.0 for s in specs])
         self.offs = np.array([s.absent for s in specs])
         self.sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(ad.measured.shape[1])])
-        used = np.flatnonzero(mask)
-        self.until = int(used[-1]) + 1 if used.size else 0
+        self.until = part_end(mask)
         self._cache: tuple[bytes, tuple[np.ndarray, np.ndarray]] | None = None
         self._residual: tuple[bytes, np.ndarray] | None = None
 
@@ -142,6 +141,12 @@ def fit_model(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list
                        rho, part_nrmse(ad.measured, y, masks["fit"]), y[val] / sd_val)
 
 
+def part_end(mask: np.ndarray) -> int | None:
+    """One past the last sample of a record part (``mask``): where a replay scored on it may stop (None: empty)."""
+    used = np.flatnonzero(mask)
+    return int(used[-1]) + 1 if used.size else None
+
+
 def part_nrmse(measured: np.ndarray, y: np.ndarray, mask: np.ndarray) -> float:
     """NRMSE of replay ``y`` on one part of the record, the mean over the outputs (:func:`output_metrics`)."""
     return float(np.mean([output_metrics(measured[mask, j], y[mask, j])["nrmse"] for j in range(y.shape[1])]))
@@ -197,5 +202,5 @@ def lstsq_sse(A: np.ndarray, r: np.ndarray) -> float:
     e = r - A @ coef
     return float(np.dot(e, e))
 
-__all__ = ["SimulationErrorProblem", "compared", "effect_evidence", "fit_model", "lstsq_sse", "part_nrmse",
-           "validation_blind", "without_effect"]
+__all__ = ["SimulationErrorProblem", "compared", "effect_evidence", "fit_model", "lstsq_sse", "part_end",
+           "part_nrmse", "validation_blind", "without_effect"]

@@ -42,6 +42,7 @@ from vsa_gym.identify.fitting import (
     effect_evidence,
     fit_model,
     lstsq_sse,
+    part_end,
     validation_blind,
     without_effect,
 )
@@ -465,7 +466,7 @@ class Identifier:
             if default is None:
                 default = theta0.get(k, 0.0)
             theta[k] = np.array([r.get(k, default) for r in rows])
-        y = ad.simulate(theta, n, until=int(np.flatnonzero(mask)[-1]) + 1 if mask.any() else None)
+        y = ad.simulate(theta, n, until=part_end(mask))
         sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(y.shape[2])])
         Y = (y[mask] / sd).transpose(1, 0, 2).reshape(n, -1)
         r = ((ad.measured[mask] / sd).reshape(-1) - Y[0])

@@ -28,6 +28,8 @@ from vsa_gym.devices import device as device_spec
 from vsa_gym.devices import devices
 
 FORMAT = "vsa-gym/measured-data/1"
+#: a drive sidecar's ``model.transmission``: a gear, screw or belt between motor and load, or none
+TRANSMISSIONS: tuple[str, ...] = ("geared", "direct")
 #: the devices a record may declare, and their input / output quantities with the allowed units
 #: (:mod:`vsa_gym.devices`: each device declares its record schema once)
 DEVICES: tuple[str, ...] = tuple(d.name for d in devices())
@@ -206,8 +208,8 @@ def check_record(path: str | Path, table: pd.DataFrame | None = None,
 
     model = meta.get("model", {})
     if isinstance(model, Mapping) and "transmission" in model and (
-            device != "drive" or model["transmission"] not in ("geared", "direct")):
-        problems.append(f"model.transmission: {model['transmission']!r} is not 'geared' or 'direct'"
+            device != "drive" or model["transmission"] not in TRANSMISSIONS):
+        problems.append(f"model.transmission: {model['transmission']!r} is not {' or '.join(map(repr, TRANSMISSIONS))}"
                         if device == "drive" else f"model.transmission is a drive field; device {device!r} has none")
 
     # time

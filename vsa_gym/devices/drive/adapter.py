@@ -15,7 +15,7 @@ from vsa_gym.devices.drive.effects import ZETA_COMPLIANCE
 from vsa_gym.identify.adapters import SENSOR_KEYS, Adapter, Theta, theta_column, theta_rows
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.library import physics_specs
-from vsa_gym.identify.record import Record
+from vsa_gym.identify.record import TRANSMISSIONS, Record
 
 # ----------------------------------------------------------------------------- generic drive
 #: nuisance parameter of a drive whose start force is not declared: the share of the settled drive force at t0
@@ -48,7 +48,7 @@ class DriveAdapter(Adapter):
         self.params = drive.DriveParams(**model.get("params", {}))
         self.rot = model.get("motion", "translational") == "rotational"
         transmission = model.get("transmission", "geared")
-        if transmission not in ("geared", "direct"):
+        if transmission not in TRANSMISSIONS:
             raise ValueError(f"model.transmission must be 'geared' (a transmission between motor and load: gear, "
                              f"screw, belt; the default) or 'direct' (the motor drives the load itself, e.g. a "
                              f"linear motor), got {transmission!r}")
