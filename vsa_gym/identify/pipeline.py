@@ -48,8 +48,15 @@ from vsa_gym.identify.fitting import (
 )
 from vsa_gym.identify.record import Record
 from vsa_gym.identify.result import Candidate, FittedModel, IdentificationResult, output_metrics, residual_tests
-from vsa_gym.identify.selection import Ambiguity, excess_share, lookalikes, noise_floor, separating_experiment
-from vsa_gym.identify.starts import main_start, shape_variants
+from vsa_gym.identify.selection import (
+    Ambiguity,
+    excess_share,
+    lookalikes,
+    noise_floor,
+    separating_experiment,
+    shares_force,
+)
+from vsa_gym.identify.starts import main_start, shape_variants, split_start
 
 #: multiples of a candidate's typical size at which its ranking signature is taken (:meth:`Identifier._rank_sizes`)
 RANK_SIZES: tuple[float, ...] = (1.0, 4.0, 16.0)
@@ -59,8 +66,10 @@ RANK_SIZES: tuple[float, ...] = (1.0, 4.0, 16.0)
 #: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
 RUNAWAY_NRMSE = 1.0
 #: a full open-loop replay whose selected model still leaves this validation NRMSE drifts: the selection is
-#: repeated on shooting windows (:meth:`Identifier._second_opinion`)
-DRIFT_NRMSE = 0.1
+#: repeated on shooting windows (:meth:`Identifier._second_opinion`).  0.1 let truth case 13054 (Stribeck plus
+#: Coulomb friction, a closed-loop record replayed open loop) stop at Coulomb friction alone, 0.071: on windows
+#: both were found within 2 % and refitted by full replay to 0.0079
+DRIFT_NRMSE = 0.03
 #: a selection ending this many times above the validation noise floor is tried again from round one's runner-up
 #: where that validated within RUNNER_UP times the winner's error; the runner-up's branch must validate below
 #: BRANCH_GAIN times the selection's error to replace it (:meth:`Identifier._runner_up`)
@@ -230,7 +239,10 @@ class Identifier:
             if not remaining:
                 break
             ranked = self._rank(ad, current, remaining, masks["fit"])
-            chosen = {n for n, _ in ranked[:self.n_fit]} | (lookalikes(ranked[0][0]) & set(remaining))
+            # the best few, the look-alikes of the best, and whatever can take a share of an accepted force (its
+            # signature beside a force that already carries the sum ranks low)
+            chosen = ({n for n, _ in ranked[:self.n_fit]} | (lookalikes(ranked[0][0]) & set(remaining))
+                      | {n for n in remaining for o in current.effects if shares_force(ad.effects[o], ad.effects[n])})
             fitted: list[tuple[FittedModel, Candidate]] = []
             for name, score in ranked:
                 cand = Candidate(rnd, name, score)
@@ -358,8 +370,15 @@ class Identifier:
         init = {**current.theta(), **{k: p.typical for k, p in zip(spec.keys, spec.params, strict=True)}}
         init.update(main_start(ad, current, spec, masks["fit"]))
         held = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if not p.optional]
-        fm = fit_model(ad, {}, current.keys + [k for k, _ in held], current.specs + [p for _, p in held], init,
-                       masks, (*current.effects, name), self.max_nfev)
+        keys, specs = current.keys + [k for k, _ in held], current.specs + [p for _, p in held]
+        fm = fit_model(ad, {}, keys, specs, init, masks, (*current.effects, name), self.max_nfev)
+        # beside an accepted effect that is the same kind of force, the new one is also started with a share of
+        # that force; the start whose fit leaves the smaller fit-part error is kept
+        split = split_start(ad, current, spec, masks["fit"])
+        if split:
+            alt = fit_model(ad, {}, keys, specs, {**init, **split}, masks, (*current.effects, name), self.max_nfev)
+            if alt.sse_fit < fm.sse_fit:
+                fm = alt
         if len(held) == len(spec.keys):
             return fm
         # the optional shape parameters are freed only where that validates better by the margin; the free fit

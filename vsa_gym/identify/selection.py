@@ -31,6 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from vsa_gym.identify.effects import EffectSpec
+
 #: effects that can explain the same records; one of a group ranking first gets all of them fitted
 LOOKALIKE_GROUPS: tuple[tuple[str, ...], ...] = (
     ("backlash", "transmission_compliance", "hysteresis", "coulomb_friction", "gearbox_efficiency"),
@@ -89,6 +91,17 @@ def lookalikes(name: str) -> set[str]:
     return out
 
 
+def shares_force(a: EffectSpec, b: EffectSpec) -> bool:
+    """Whether look-alikes ``a`` and ``b`` are forces of one kind at one place (same location, main parameters of
+    the same unit): the sliding force of a Dahl loop and of Coulomb friction add up, so the first one fitted
+    carries their sum and the second can only be found by taking a share of it (:func:`vsa_gym.identify.starts.
+    split_start`)."""
+    if b.name not in lookalikes(a.name) or a.location != b.location:
+        return False
+    units = {next(p.unit for p in s.params if p.main) for s in (a, b)}
+    return len(units) == 1
+
+
 def separating_experiment(a: str, b: str) -> str:
     return SEPARATING.get(frozenset({a, b}), "an experiment that excites the two effects differently")
 
@@ -139,4 +152,4 @@ class Ambiguity:
 
 
 __all__ = ["LOOKALIKE_GROUPS", "SEPARATING", "Ambiguity", "excess_share", "lookalikes", "noise_floor",
-           "separating_experiment"]
+           "separating_experiment", "shares_force"]

@@ -14,6 +14,7 @@ from vsa_gym.identify.adapters import Adapter
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.fitting import SimulationErrorProblem, without_keys
 from vsa_gym.identify.result import FittedModel
+from vsa_gym.identify.selection import shares_force
 
 #: points of the grid over each optional shape parameter's range (see :func:`shape_starts`)
 SHAPE_GRID = 5
@@ -22,6 +23,8 @@ SHAPE_GRID = 5
 #: replay a force 2x off runs away as far as one 4x off
 MAIN_SIZES: tuple[float, ...] = (0.25, 1.0, 4.0, 16.0)
 MAIN_SIZES_SHAPED: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
+#: shares of an accepted effect's force a new effect of the same kind of force starts with (:func:`split_start`)
+SPLIT_SHARES: tuple[float, ...] = (0.25, 0.5, 0.75)
 
 
 def _range_grid(p: ParamSpec, n: int) -> np.ndarray:
@@ -127,3 +130,53 @@ def main_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.nda
     prob = SimulationErrorProblem(ad, current.theta(), keys, params, mask)
     best = pts[int(np.argmin(_batch_cost(prob, pts)))]
     return {kk: float(v) for kk, v in zip(keys, best, strict=True) if kk == k or kk in searched}
+
+
+def split_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:
+    """A start that gives the new effect a share of an accepted effect's force (empty where none shares one).
+
+    Look-alikes that are one kind of force at one place (:func:`vsa_gym.identify.selection.shares_force`: a
+    Dahl loop and Coulomb friction slide at the sum of their forces) are fitted one after the other: the first
+    takes the whole sliding force (and a shape to match: a Dahl loop standing in for loop plus friction has
+    the short travel of the sum), and the second, started beside it (:func:`main_start`), only adds to a force
+    that is already right, so the least squares keeps it near zero.  Here the accepted effect keeps ``1 - s``
+    of its force and the new one starts with ``s`` of it (``s`` in :data:`SPLIT_SHARES`), the searched shapes
+    of both (``ParamSpec.grid``) over their grids as in :func:`main_start`, all replayed in one batch; the
+    best point is the start (truth cases 7053 and 13053: a Dahl loop carrying loop plus Coulomb force, split,
+    refits to both within 3 %)."""
+    theta = current.theta()
+    best: tuple[float, dict[str, float]] | None = None
+    for old in (o for o in current.effects if o in ad.effects and shares_force(ad.effects[o], spec)):
+        k_new, p_new = _main(spec)
+        k_old, p_old = _main(ad.effects[old])
+        force = theta[k_old] - p_old.absent
+        # the new force keeps its own sign convention: a friction is positive whatever the accepted one's sign
+        new = abs(force) if p_new.lower >= p_new.absent else force
+        keys, params, axes = [], [], []
+        for kk, q in [*zip(spec.keys, spec.params, strict=True), *zip(ad.effects[old].keys, ad.effects[old].params,
+                                                                      strict=True)]:
+            if kk in (k_new, k_old) or (q.optional and kk not in theta):
+                continue  # the forces follow the share; an optional shape stays as the fit holds it
+            keys.append(kk)
+            params.append(q)
+            here = [theta[kk]] if kk in theta else []  # an accepted shape: where it is, and its grid
+            axes.append(np.unique(np.append(_range_grid(q, q.grid), [q.typical, *here])) if q.grid and not q.optional
+                        else np.array([theta.get(kk, q.typical)]))
+        grid = np.array(np.meshgrid(np.array(SPLIT_SHARES), *axes, indexing="ij")).reshape(len(axes) + 1, -1).T
+        shares = grid[:, 0]
+        forces = np.column_stack([[p_new.clip(p_new.absent + s * new) for s in shares],
+                                  [p_old.clip(p_old.absent + (1.0 - s) * force) for s in shares]])
+        pts = np.column_stack([forces, grid[:, 1:]])
+        all_keys = [k_new, k_old, *keys]
+        prob = SimulationErrorProblem(ad, {kk: v for kk, v in theta.items() if kk not in all_keys}, all_keys,
+                                      [p_new, p_old, *params], mask)
+        cost = _batch_cost(prob, pts)
+        i = int(np.argmin(cost))
+        if np.isfinite(cost[i]) and (best is None or cost[i] < best[0]):
+            best = (float(cost[i]), {kk: float(v) for kk, v in zip(all_keys, pts[i], strict=True)})
+    return best[1] if best else {}
+
+
+def _main(spec: EffectSpec) -> tuple[str, ParamSpec]:
+    """An effect's main parameter: its key and spec."""
+    return next((k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main)
