@@ -1,6 +1,7 @@
 """Fit starts of the identification (:mod:`vsa_gym.identify.starts`) on a record of the independent truth
-simulator (tests/truthsim): a friction's stick travel is one switch, and a shape the switch leaves out of the
-equations is not searched while it is on."""
+simulator (tests/truthsim): a friction's stick travel is one switch, a shape the switch leaves out of the
+equations is not searched while it is on, and a force of the same kind as an accepted one starts with a share of
+it."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from vsa_gym.identify import starts
 from vsa_gym.identify.adapters import make_adapter
 from vsa_gym.identify.fitting import SimulationErrorProblem, fit_model
 from vsa_gym.identify.record import load_record
+from vsa_gym.identify.selection import shares_force
 
 
 @pytest.fixture(scope="module")
@@ -74,3 +76,27 @@ def test_a_switch_already_on_is_tried_on_and_off_for_a_second_friction_term(coul
     # without a switch on in the model, the new term's switch is tried itself (off, then on)
     alone = starts.shape_variants(ad, held, with_stribeck(held), stribeck, masks["fit"])
     assert [base for base, _ in alone] == [held, held] and alone[1][1]["stribeck_friction.x_stick"] > 0.0
+
+
+def test_only_forces_of_one_kind_at_one_place_share_a_force(coulomb_case):
+    ad = coulomb_case[0]
+    fx = ad.effects
+    assert shares_force(fx["coulomb_friction"], fx["hysteresis"])
+    assert shares_force(fx["stribeck_friction"], fx["coulomb_friction"])
+    assert not shares_force(fx["coulomb_friction"], fx["backlash"])  # a look-alike, but a width, not a force
+    assert not shares_force(fx["hysteresis"], fx["viscous_friction"])  # no look-alike
+
+
+def test_a_split_start_gives_the_new_force_a_share_of_the_accepted_one(coulomb_case):
+    """Beside the fitted Coulomb friction, a Dahl loop starts with a share of its force and the friction keeps
+    the rest (their sliding force stays the fitted one); a gap shares no force and gets no split start."""
+    ad, masks, held = coulomb_case
+    f_c = held.theta()["coulomb_friction.F_c"]
+    start = starts.split_start(ad, held, ad.effects["hysteresis"], masks["fit"])
+    assert set(start) == {"hysteresis.F_h", "hysteresis.x_h", "coulomb_friction.F_c"}
+    assert start["hysteresis.F_h"] + start["coulomb_friction.F_c"] == pytest.approx(f_c)
+    assert start["hysteresis.F_h"] / f_c == pytest.approx(min(starts.SPLIT_SHARES, key=lambda s: abs(
+        s - start["hysteresis.F_h"] / f_c)))
+    x_h = ad.effects["hysteresis"].params[1]
+    assert x_h.lower <= start["hysteresis.x_h"] <= x_h.upper
+    assert starts.split_start(ad, held, ad.effects["backlash"], masks["fit"]) == {}

@@ -189,3 +189,24 @@ def test_inertia_error_and_coulomb_friction_on_a_direct_drive_are_not_a_mesh_los
     res = _pair_named_within_15_percent(tmp_path, 13051, ("inertia_error", "coulomb_friction"),
                                         ("gearbox_efficiency", "sensor_gain", "inertia_error", "coulomb_friction"))
     assert not any(c.name == "gearbox_efficiency" for c in res.candidates)
+
+
+def test_dahl_loop_and_coulomb_friction_are_split_not_named_one_loop(tmp_path):
+    """Case 7053 of the seed-7 set (a ball screw, open-loop chirp at 500 Hz; Dahl loop of 10.3 N with 1.1 mm of
+    presliding travel, Coulomb friction of 14.7 N): the loop fitted first carried their sum (24.2 N, 0.19 mm),
+    and Coulomb friction started beside it stayed at zero (one loop named, 135 % off).  Started with a share of
+    the loop's force and the loop's travel searched again, both are named within 15 %."""
+    _pair_named_within_15_percent(tmp_path, 7053, ("hysteresis", "coulomb_friction"),
+                                  ("hysteresis", "coulomb_friction", "gearbox_efficiency"))
+
+
+def test_a_force_beside_an_accepted_one_is_fitted_however_low_it_ranks(tmp_path):
+    """Case 13053 of the seed-13 set (a gear motor, open-loop steps at 200 Hz, Dahl loop and Coulomb friction of
+    about the same force), with every candidate: beside a loop carrying both forces, Coulomb friction's signature
+    ranked too low to be fitted and one loop was named (103 % off).  A force of the kind already accepted is
+    always fitted in the next round; both are named within 15 %."""
+    res, truth = _identify(tmp_path, 13053, ("hysteresis", "coulomb_friction"))
+    named = {e["name"]: e["parameters"] for e in res["effects"]}
+    assert set(named) == {"hysteresis", "coulomb_friction"}, res["statements"]
+    for e in named:
+        assert named[e][MAIN[e]] == pytest.approx(truth["main"][e], rel=0.15), e
