@@ -66,10 +66,8 @@ RANK_SIZES: tuple[float, ...] = (1.0, 4.0, 16.0)
 #: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
 RUNAWAY_NRMSE = 1.0
 #: a full open-loop replay whose selected model still leaves this validation NRMSE drifts: the selection is
-#: repeated on shooting windows (:meth:`Identifier._second_opinion`).  0.1 let truth case 13054 (Stribeck plus
-#: Coulomb friction, a closed-loop record replayed open loop) stop at Coulomb friction alone, 0.071: on windows
-#: both were found within 2 % and refitted by full replay to 0.0079
-DRIFT_NRMSE = 0.03
+#: repeated on shooting windows (:meth:`Identifier._second_opinion`)
+DRIFT_NRMSE = 0.1
 #: a selection ending this many times above the validation noise floor is tried again from round one's runner-up
 #: where that validated within RUNNER_UP times the winner's error; the runner-up's branch must validate below
 #: BRANCH_GAIN times the selection's error to replace it (:meth:`Identifier._runner_up`)
