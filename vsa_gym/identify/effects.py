@@ -87,6 +87,11 @@ class EffectSpec:
     def description(self) -> str:
         return DESCRIPTIONS.get(self.name, self.name)
 
+    @property
+    def main_param(self) -> tuple[str, ParamSpec]:
+        """The main parameter (the first marked ``main``): its key and spec."""
+        return next((k, p) for k, p in zip(self.keys, self.params, strict=True) if p.main)
+
 
 @dataclasses.dataclass(frozen=True)
 class MeasurementModel:

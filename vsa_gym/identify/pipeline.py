@@ -506,7 +506,7 @@ class Identifier:
         where the bounds allow.  The signature of a gap, a stick-slip or a presliding loop changes its shape with
         the size, so one secant at the typical size can miss an effect several times larger (a closed-loop
         backlash of 6x the typical width ranked tenth of twelve on its typical-size secant)."""
-        k, p = next((k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main)
+        k, p = spec.main_param
         step = p.typical - p.absent
         sizes = [{k: p.typical}]
         for f in RANK_SIZES[1:]:

@@ -152,7 +152,7 @@ class IdentificationResult:
         lines = []
         for e in self.effects:
             spec = self.adapter.effects[e["name"]]
-            main = next(p for p in spec.params if p.main)
+            main = spec.main_param[1]
             v = e["parameters"][main.name]
             lo, hi = e["ci"][main.name]
             unit = f" {main.unit}" if main.unit and main.unit != "-" else ""

@@ -98,8 +98,7 @@ def shares_force(a: EffectSpec, b: EffectSpec) -> bool:
     split_start`)."""
     if b.name not in lookalikes(a.name) or a.location != b.location:
         return False
-    units = {next(p.unit for p in s.params if p.main) for s in (a, b)}
-    return len(units) == 1
+    return a.main_param[1].unit == b.main_param[1].unit
 
 
 def separating_experiment(a: str, b: str) -> str:

@@ -32,6 +32,12 @@ def _range_grid(p: ParamSpec, n: int) -> np.ndarray:
     return np.geomspace(p.lower, p.upper, n) if p.lower > 0 else np.linspace(p.lower, p.upper, n)
 
 
+def _searched_axis(q: ParamSpec, *extra: float) -> np.ndarray:
+    """The values at which a searched shape (``ParamSpec.grid``) is tried with a main parameter: its grid over the
+    range, its typical value and ``extra``."""
+    return np.unique(np.append(_range_grid(q, q.grid), [q.typical, *extra]))
+
+
 def _batch_cost(prob: SimulationErrorProblem, pts: np.ndarray) -> np.ndarray:
     """Fit-part cost of each start (rows of ``pts``, in parameter units) from one batched replay; a start whose
     replay runs away or diverges costs ``inf``, so it is never the best."""
@@ -109,7 +115,7 @@ def main_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.nda
     parameter with a ``grid`` (not optional: always fitted) is searched with it, over its range (log-spaced
     where positive) and its typical value: a Dahl loop started at a typical presliding travel 5x the true one
     slid to the shortest travel, a Coulomb friction of twice the loop's force (truth case 11024)."""
-    k, p = next((k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main)
+    k, p = spec.main_param
     step = p.typical - p.absent
     keys, params = list(spec.keys), list(spec.params)
     searched = {kk for kk, q in zip(keys, params, strict=True) if q.grid and not q.optional}  # with the main one
@@ -123,7 +129,7 @@ def main_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.nda
         if kk == k:
             axes.append(np.array(grid))
         elif kk in searched:
-            axes.append(np.unique(np.append(_range_grid(q, q.grid), q.typical)))
+            axes.append(_searched_axis(q))
         else:
             axes.append(np.array([q.typical]))
     pts = np.array(np.meshgrid(*axes, indexing="ij")).reshape(len(keys), -1).T
@@ -145,10 +151,10 @@ def split_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.nd
     best point is the start (truth cases 7053 and 13053: a Dahl loop carrying loop plus Coulomb force, split,
     refits to both within 3 %)."""
     theta = current.theta()
+    k_new, p_new = spec.main_param
     best: tuple[float, dict[str, float]] | None = None
     for old in (o for o in current.effects if o in ad.effects and shares_force(ad.effects[o], spec)):
-        k_new, p_new = _main(spec)
-        k_old, p_old = _main(ad.effects[old])
+        k_old, p_old = ad.effects[old].main_param
         force = theta[k_old] - p_old.absent
         # the new force keeps its own sign convention: a friction is positive whatever the accepted one's sign
         new = abs(force) if p_new.lower >= p_new.absent else force
@@ -160,7 +166,7 @@ def split_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.nd
             keys.append(kk)
             params.append(q)
             here = [theta[kk]] if kk in theta else []  # an accepted shape: where it is, and its grid
-            axes.append(np.unique(np.append(_range_grid(q, q.grid), [q.typical, *here])) if q.grid and not q.optional
+            axes.append(_searched_axis(q, *here) if q.grid and not q.optional
                         else np.array([theta.get(kk, q.typical)]))
         grid = np.array(np.meshgrid(np.array(SPLIT_SHARES), *axes, indexing="ij")).reshape(len(axes) + 1, -1).T
         shares = grid[:, 0]
@@ -175,8 +181,3 @@ def split_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.nd
         if np.isfinite(cost[i]) and (best is None or cost[i] < best[0]):
             best = (float(cost[i]), {kk: float(v) for kk, v in zip(all_keys, pts[i], strict=True)})
     return best[1] if best else {}
-
-
-def _main(spec: EffectSpec) -> tuple[str, ParamSpec]:
-    """An effect's main parameter: its key and spec."""
-    return next((k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main)
