@@ -38,6 +38,7 @@ LOOKALIKE_GROUPS: tuple[tuple[str, ...], ...] = (
     ("backlash", "transmission_compliance", "hysteresis", "coulomb_friction", "gearbox_efficiency"),
     ("stribeck_friction", "sensor_offset", "coulomb_friction"),
     ("coulomb_friction", "force_offset"),
+    ("coulomb_friction", "viscous_friction"),
     ("inertia_error", "sensor_gain"),
 )
 
@@ -75,6 +76,9 @@ SEPARATING: dict[frozenset[str], str] = {
     frozenset({"coulomb_friction", "force_offset"}):
         "moves in both directions at the same speed: Coulomb friction changes sign with the speed, a constant "
         "load force does not",
+    frozenset({"coulomb_friction", "viscous_friction"}):
+        "constant-speed runs at several speeds: viscous friction grows in proportion to the speed, Coulomb "
+        "friction is flat once built up",
     frozenset({"inertia_error", "sensor_gain"}):
         "a measured force or a second position sensor: an inertia error changes the force-acceleration ratio, "
         "a sensor gain only the reading",
