@@ -62,6 +62,7 @@ LOOKALIKES: dict[str, tuple[str, ...]] = {
     "transmission": ("backlash", "transmission_compliance", "hysteresis", "coulomb_friction", "gearbox_efficiency"),
     "offset": ("stribeck_friction", "sensor_offset"),
     "constant force": ("coulomb_friction", "force_offset"),
+    "speed law": ("coulomb_friction", "viscous_friction"),  # a Coulomb friction with a wide build-up speed v_t
 }
 QUICK = (("coulomb_friction",), ("backlash",), ("sensor_offset",), ("inertia_error",),
          ("coulomb_friction", "force_offset"), ())
