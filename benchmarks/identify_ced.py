@@ -19,6 +19,9 @@ The model (sidecar ``model``): the generic drive with m = 1 (speed in sensor uni
 ``k_c, c_c`` between the motor side ``frac_m`` and the pulley; the sensor is ``|v|`` followed by a first-order
 12 Hz low-pass (a measurement effect, ``filter_hz``).  Starting values come from the providers' reference
 Wiener model (eq. 9: alpha = 7.2 1/s, w0 = 21.2 rad/s, xi = 0.12, static gain 1.83); all six are refitted.
+
+The last line printed is an oracle, not a result (:func:`joint_oracle`): the identified model refitted on both
+test parts at once, and what that parameter set costs on the training record beside the trained one.
 """
 
 from __future__ import annotations
