@@ -4,7 +4,7 @@
                                         [--jobs N] [--only EFFECT] [--out out/identify_truth]
                                         [--quick] [--subprocess] [--redo CASE_SEED ...]
                                         [--rate HZ] [--duration S]
-    python -m benchmarks.identify_truth --join DIR [DIR ...] --out DIR
+    python -m benchmarks.identify_truth --join DIR [DIR ...] [--exclude CASE_SEED ...] --out DIR
 
 Case set (every case drawn from its own seed, ``seed * 1000 + index``): each single effect of
 :data:`tests.truthsim.scenarios.EFFECTS` x ``--draws`` (this holds every member of the look-alike
@@ -285,11 +285,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--join", nargs="+", default=None, metavar="DIR",
                     help="pool the cases of these earlier OUT folders (their results.json) into one summary in "
                          "--out; nothing is re-run")
+    ap.add_argument("--exclude", type=int, nargs="+", default=[], metavar="CASE_SEED",
+                    help="with --join: leave these case seeds out of the pooled summary (e.g. the cases a change "
+                         "was written on)")
     args = ap.parse_args(argv)
     if args.join:
         rows = [r for d in args.join for r in json.loads((Path(d) / "results.json").read_text())["cases"]]
+        missing = sorted(set(args.exclude) - {r["seed"] for r in rows})
+        if missing:
+            raise SystemExit(f"--exclude: case seeds {missing} are not in the joined results")
+        rows = [r for r in rows if r["seed"] not in args.exclude]
         summary = summarise(rows)
         summary["joined"] = list(args.join)
+        summary["excluded"] = list(args.exclude)
         _write(Path(args.out), summary, rows, f"{len(rows)} cases joined")
         return 0
     specs = case_specs(args.draws, args.pairs, args.controls, args.seed, args.only, args.quick, args.rate,
