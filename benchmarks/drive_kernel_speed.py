@@ -9,11 +9,15 @@ faster; :mod:`benchmarks.checkouts`).  Figures (best of the rounds):
 
 * ``kernel <effect> ns/row-substep``: :func:`vsa_gym.devices.drive.model.simulate` of 6 rows over 6000 samples of
   2 ms at 8 RK4 substeps, per row and substep (4 right-hand sides), for the nominal drive with a 0.19 ms current
-  loop and with Coulomb friction, a Stribeck curve, a compliant shaft, a backlash, a mesh loss or a Dahl loop;
+  loop and with Coulomb friction, a Stribeck curve, a compliant shaft, a backlash, a mesh loss or a Dahl loop (a
+  Dahl row takes the exponential stepper, whose substep costs more);
+* ``roll-out dahl 5 um ms/row``: the same 6000 samples with a Dahl loop of 5 um presliding travel at the substeps
+  the model chooses itself (before the exponential stepper the Dahl decay set them: 95 per sample here), per row;
 * ``identify truth 5040 s`` (``--identify``): ``vsa_gym.identify.pipeline.identify`` of the independent truth
   simulator's case 5040 (a sensor offset on an open-loop linear motor, 500 Hz, 11.8 s; ``tests.truthsim``), and
   ``identify truth 11000 s`` of case 11000 (Coulomb friction on an open-loop ball screw, 200 Hz, 14.3 s: the
-  friction's stick travel makes its candidates stiff).
+  friction's stick travel makes its candidates stiff), and ``identify truth 11011 1k20 s`` of case 11011 drawn at
+  1 kHz for 20 s (viscous friction on a linear motor: its hysteresis candidates were the slow ones).
 """
 
 from __future__ import annotations
@@ -56,16 +60,26 @@ def measure() -> dict[str, float]:
             drive.simulate(P, u, dt, n_sub=n_sub)
             best = min(best, time.perf_counter() - t0)
         out[f"kernel {name} ns/row-substep"] = best / (n * T * n_sub) * 1e9
+    P = np.repeat(base, n, axis=0)
+    P[:, drive.PIDX["F_h"]], P[:, drive.PIDX["sigma_h"]] = 1.0, 1.0 / 5e-6
+    drive.simulate(P, u[:10], dt)
+    best = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        drive.simulate(P, u, dt)
+        best = min(best, time.perf_counter() - t0)
+    out["roll-out dahl 5 um ms/row"] = best / n * 1e3
     if os.environ.get("DRIVE_SPEED_IDENTIFY") == "1":
         from tests.truthsim.scenarios import draw_case, write_case
         from vsa_gym.identify.pipeline import identify
 
-        for seed, effect in ((5040, "sensor_offset"), (11000, "coulomb_friction")):
+        for seed, effect, at in ((5040, "sensor_offset", {}), (11000, "coulomb_friction", {}),
+                                 (11011, "viscous_friction", {"rate": 1000.0, "duration": 20.0})):
             with tempfile.TemporaryDirectory() as tmp:
-                csv = write_case(draw_case(seed, (effect,)), tmp)
+                csv = write_case(draw_case(seed, (effect,), **at), tmp)
                 t0 = time.perf_counter()
                 identify(str(csv))
-                out[f"identify truth {seed} s"] = time.perf_counter() - t0
+                out[f"identify truth {seed}{' 1k20' if at else ''} s"] = time.perf_counter() - t0
     out["_file"] = vsa_gym.__file__  # type: ignore[assignment]
     return out
 

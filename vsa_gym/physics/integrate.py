@@ -88,6 +88,32 @@ def etdrk4_weights(lam: Any, h: float) -> tuple[Any, Any, Any, Any, Any, Any]:
     return e_half, 0.5 * h * p1_half, e_full, p1 - 3.0 * p2 + 4.0 * p3, 2.0 * (p2 - 2.0 * p3), 4.0 * p3 - p2
 
 
+@register_jitable
+def phi_scalar(z: float) -> tuple[float, float, float, float]:
+    """:func:`phi_functions` of one float ``z``, without arrays: ``(exp(z), phi_1, phi_2, phi_3)``."""
+    ez = np.exp(z)
+    if abs(z) < 0.1:
+        p3 = 1.0 / 6.0 + z * (1.0 / 24.0 + z * (1.0 / 120.0 + z * (1.0 / 720.0 + z * (1.0 / 5040.0 + z / 40320.0))))
+    else:
+        p3 = (ez - 1.0 - z - 0.5 * z * z) / (z * z * z)
+    p2 = 0.5 + z * p3
+    return ez, 1.0 + z * p2, p2, p3
+
+
+@register_jitable
+def etdrk4_weights_scalar(lam: float, h: float) -> tuple[float, float, float, float, float, float]:
+    """:func:`etdrk4_weights` for one decay rate ``lam`` (1/s, a float), without arrays.
+
+    For a compiled row loop whose rate changes every substep (a Dahl or bristle state whose decay is ``sigma |v|``):
+    the array form allocates its temporaries on each call, which costs more than the substep it serves.
+    :func:`phi_scalar` holds the same expressions as :func:`phi_functions`; ``tests/test_integrate.py`` checks
+    that both forms agree to round-off on both of its branches.
+    """
+    e_half, p1_half, _, _ = phi_scalar(-0.5 * h * lam)
+    e_full, p1, p2, p3 = phi_scalar(-h * lam)
+    return e_half, 0.5 * h * p1_half, e_full, p1 - 3.0 * p2 + 4.0 * p3, 2.0 * (p2 - 2.0 * p3), 4.0 * p3 - p2
+
+
 def exponential_rk4(
     rhs: Rhs,
     x: np.ndarray,

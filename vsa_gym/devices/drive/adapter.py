@@ -246,9 +246,9 @@ class DriveAdapter(Adapter):
         return np.stack([theta_column(theta, k, n) for k in SENSOR_KEYS], axis=1)
 
     def substeps(self, P: np.ndarray) -> int:
-        """RK4 substeps per sample that the fastest mode among rows ``P`` asks for, at twice the record's
-        top speed (:func:`vsa_gym.devices.drive.model.substeps`)."""
-        return drive.substeps(P, self.dt, vmax=getattr(self, "v_ref", 1.0) * 2)
+        """RK4 substeps per sample that the fastest mode among rows ``P`` asks for
+        (:func:`vsa_gym.devices.drive.model.substeps`)."""
+        return drive.substeps(P, self.dt)
 
     def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray, theta: Theta | None = None,
                  n_sub: int | None = None) -> np.ndarray:

@@ -50,7 +50,11 @@ the friction sticks instead of creeping: a reset-integrator bristle ``z`` (Haess
 so the load holds against any force below ``F_c + F_s`` (a critically damped spring of travel
 ``x_c``) and slides with ``g(v)`` beyond.  With ``x_c = 0`` (the default) the tanh law above
 creeps at a speed of order ``v_eps`` under a force below the breakaway level.  ``h`` is a Dahl hysteresis force
-(``dh/dt = sigma_h (v - |v| h / F_h)``, presliding travel ``F_h / sigma_h``).
+(``dh/dt = sigma_h (v - |v| h / F_h)``, presliding travel ``F_h / sigma_h``).  Its decay ``sigma_h |v| / F_h`` is
+linear in ``h`` and stiff where the presliding travel is short against the travel of one substep: rows with a
+Dahl force are stepped by exponential RK4 (:func:`~vsa_gym.physics.steppers.etd_row_stepper`, the decay rate taken
+at each substep's start), which integrates that decay exactly, so it does not set the substeps; every other row
+is stepped by classical RK4.
 
 Gearbox efficiency acts at the mesh, between the motor-side inertia ``m_m = frac_m m``
 (rotor and pinion, reflected) and the load side ``m_l = (1 - frac_m) m``, and depends on the
@@ -79,8 +83,9 @@ import numpy as np
 from numba.extending import register_jitable
 
 from vsa_gym.physics.dc_motor import DCMotorParams
+from vsa_gym.physics.integrate import etdrk4_weights_scalar
 from vsa_gym.physics.parameters import ParameterSet, param
-from vsa_gym.physics.steppers import rk4_row_stepper
+from vsa_gym.physics.steppers import etd_row_stepper, rk4_row_stepper
 
 PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
                            "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b",
@@ -277,6 +282,16 @@ def point_rhs(ctx: tuple[np.ndarray, float, float, bool], s: np.ndarray, ds: np.
 
 
 rk4_row = rk4_row_stepper(point_rhs)
+#: column of the Dahl hysteresis force ``h`` in the state
+H_STATE = 5
+etd_row = etd_row_stepper(point_rhs, (H_STATE,))
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _dahl_rate(P: np.ndarray, s: np.ndarray) -> float:
+    """Decay rate (1/s) of the Dahl force at state ``s``: ``sigma_h |v_l| / F_h`` (its rhs is
+    ``sigma_h v_l - rate h``)."""
+    return P[15] * abs(s[1]) / P[14]
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -326,11 +341,15 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
     pw = np.empty((4, 0))  # no power channels
     e_none = np.empty(0)
     tmp = np.empty(N_STATE)
+    yb = np.empty(N_STATE)  # the exponential stepper's other stage states (tmp is its first)
+    yc = np.empty(N_STATE)
+    nl = np.empty((4, 1))
     xs = np.empty(T)
     ix = 2 if ctrl[4] == 1.0 else 0
     for i in range(n):
         Pi = P[i]
         two_mass = Pi[9] > 0.0 or Pi[12] > 0.0
+        dahl = Pi[14] > 0.0
         s = x0[i].copy()
         q1 = 0.0
         q2 = 0.0
@@ -354,7 +373,15 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
             y[k, i, 3] = _transmitted(Pi, s, uk, two_mass)
             y[k, i, 4] = uk
             fk = fext[k]
-            rk4_row((Pi, uk, fk, two_mass), s, h, n_sub, ks, pw, tmp, e_none)
+            if dahl:
+                for _ in range(n_sub):
+                    lam = _dahl_rate(Pi, s)
+                    e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights_scalar(lam, h)
+                    etd_row((Pi, uk, fk, two_mass), s, h, 1, (lam,),
+                            ((e_half,), (w_half,), (e_full,), (f_u,), (f_ab,), (f_c,)), ks, pw, tmp, yb, yc, nl,
+                            e_none)
+            else:
+                rk4_row((Pi, uk, fk, two_mass), s, h, n_sub, ks, pw, tmp, e_none)
     return y
 
 
@@ -370,9 +397,11 @@ def contact_stiffness(P: np.ndarray) -> np.ndarray:
 MAX_SUBSTEPS = 400
 
 
-def fastest_rate(P: np.ndarray, vmax: float = 1.0) -> np.ndarray:
-    """Each row's fastest mode ``|lambda|`` (1/s): friction regularisation or bristles, drive lag,
-    hysteresis at speed ``vmax``, and the transmission's compliance or backlash contact."""
+def fastest_rate(P: np.ndarray) -> np.ndarray:
+    """Each row's fastest mode ``|lambda|`` (1/s) that classical RK4 must resolve: friction regularisation or
+    bristles, drive lag, the Dahl force's presliding spring ``sqrt(2 sigma_h / m_l)`` (``dh/dt`` is up to
+    ``2 sigma_h v`` on a reversal; its decay ``sigma_h |v| / F_h`` is integrated exactly, see
+    :func:`simulate_kernel`), and the transmission's compliance or backlash contact."""
     m = P[:, PIDX["m"]]
     frac = P[:, PIDX["frac_m"]]
     m_load = m * np.where((P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0), 1 - frac + 1e-9, 1.0)
@@ -382,7 +411,7 @@ def fastest_rate(P: np.ndarray, vmax: float = 1.0) -> np.ndarray:
              np.where(x_c > 0, 3.0 * np.sqrt(F_st / np.maximum(x_c, 1e-300) / m_load),  # bristle: spring + damping
                       F_st / (P[:, PIDX["v_eps"]] * m_load)),
              np.where(P[:, PIDX["tau_e"]] > 0, 1.0 / np.maximum(P[:, PIDX["tau_e"]], 1e-12), 0.0),
-             P[:, PIDX["sigma_h"]] * vmax / np.maximum(P[:, PIDX["F_h"]], 1e-12) * (P[:, PIDX["F_h"]] > 0)]
+             np.sqrt(2.0 * P[:, PIDX["sigma_h"]] / m_load) * (P[:, PIDX["F_h"]] > 0)]
     two = (P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0)
     comp = P[:, PIDX["k_c"]] > 0
     k = np.where(comp, P[:, PIDX["k_c"]], contact_stiffness(P))
@@ -393,10 +422,10 @@ def fastest_rate(P: np.ndarray, vmax: float = 1.0) -> np.ndarray:
     return np.max(np.stack([np.broadcast_to(r, m.shape) for r in rates]), axis=0)
 
 
-def substeps(P: np.ndarray, dt: float, base: int = 1, vmax: float = 1.0) -> int:
+def substeps(P: np.ndarray, dt: float, base: int = 1) -> int:
     """RK4 substeps that keep ``h |lambda| < 1.5`` for the fastest mode of every row (at most
     :data:`MAX_SUBSTEPS`)."""
-    lam = float(np.max(fastest_rate(P, vmax)))
+    lam = float(np.max(fastest_rate(P)))
     return int(min(max(base, np.ceil(lam * dt / 1.5)), MAX_SUBSTEPS))
 
 
