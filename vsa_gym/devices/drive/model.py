@@ -287,11 +287,18 @@ H_STATE = 5
 etd_row = etd_row_stepper(point_rhs, (H_STATE,))
 
 
-@numba.njit(cache=True, error_model="numpy", inline="always")
-def _dahl_rate(P: np.ndarray, s: np.ndarray) -> float:
-    """Decay rate (1/s) of the Dahl force at state ``s``: ``sigma_h |v_l| / F_h`` (its rhs is
-    ``sigma_h v_l - rate h``)."""
-    return P[15] * abs(s[1]) / P[14]
+@numba.njit(cache=True, error_model="numpy")
+def _dahl_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, s: np.ndarray, h: float, n_sub: int,
+                   ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray, nl: np.ndarray,
+                   e: np.ndarray) -> None:
+    """``n_sub`` exponential RK4 substeps of a row with a Dahl force, its decay rate ``sigma_h |v_l| / F_h`` (the
+    rhs of ``h`` is ``sigma_h v_l - rate h``) taken at each substep's start.  A call of its own, not inlined, so the row
+    loop of the other rows (classical RK4) compiles as it did before."""
+    for _ in range(n_sub):
+        lam = P[15] * abs(s[1]) / P[14]
+        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights_scalar(lam, h)
+        etd_row((P, u, fext, two_mass), s, h, 1, (lam,), ((e_half,), (w_half,), (e_full,), (f_u,), (f_ab,), (f_c,)),
+                ks, pw, ya, yb, yc, nl, e)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -374,12 +381,7 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
             y[k, i, 4] = uk
             fk = fext[k]
             if dahl:
-                for _ in range(n_sub):
-                    lam = _dahl_rate(Pi, s)
-                    e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights_scalar(lam, h)
-                    etd_row((Pi, uk, fk, two_mass), s, h, 1, (lam,),
-                            ((e_half,), (w_half,), (e_full,), (f_u,), (f_ab,), (f_c,)), ks, pw, tmp, yb, yc, nl,
-                            e_none)
+                _dahl_substeps(Pi, uk, fk, two_mass, s, h, n_sub, ks, pw, tmp, yb, yc, nl, e_none)
             else:
                 rk4_row((Pi, uk, fk, two_mass), s, h, n_sub, ks, pw, tmp, e_none)
     return y
