@@ -12,7 +12,8 @@ faster; :mod:`benchmarks.checkouts`).  Figures (best of the rounds):
   loop and with Coulomb friction, a Stribeck curve, a compliant shaft, a backlash, a mesh loss or a Dahl loop (a
   Dahl row takes the exponential stepper, whose substep costs more);
 * ``roll-out dahl 5 um ms/row``: the same 6000 samples with a Dahl loop of 5 um presliding travel at the substeps
-  the model chooses itself (before the exponential stepper the Dahl decay set them: 95 per sample here), per row;
+  the model chooses itself (8 per sample; before the exponential stepper the Dahl decay at 1 m/s set them: 267), per
+  row;
 * ``identify truth 5040 s`` (``--identify``): ``vsa_gym.identify.pipeline.identify`` of the independent truth
   simulator's case 5040 (a sensor offset on an open-loop linear motor, 500 Hz, 11.8 s; ``tests.truthsim``), and
   ``identify truth 11000 s`` of case 11000 (Coulomb friction on an open-loop ball screw, 200 Hz, 14.3 s: the
