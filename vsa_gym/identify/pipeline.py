@@ -236,6 +236,13 @@ class Identifier:
             remaining = [c for c in names if c not in current.effects]
             if not remaining:
                 break
+            if current.effects and current.val_score < self.floor_factor * floors["validation"]:
+                # every further candidate would be refused by this rule of :meth:`_judge` whatever its fit: none is
+                # ranked or fitted (the choice is the same, without their replays)
+                reason = (f"not fitted: the model is already within {self.floor_factor:g}x the noise floor "
+                          f"({current.val_score:.3g} vs {floors['validation']:.3g})")
+                cands += [Candidate(rnd, name, float("nan"), reason=reason) for name in remaining]
+                break
             ranked = self._rank(ad, current, remaining, masks["fit"])
             # the best few, the look-alikes of the best, and whatever can take a share of an accepted force (its
             # signature beside a force that already carries the sum ranks low)
@@ -424,10 +431,6 @@ class Identifier:
         if cand.share < need:
             reasons.append(f"removes {100 * cand.share:.0f} % of the misfit above the noise floor "
                            f"(needs {100 * need:.0f} %)")
-        floor = floors["validation"]
-        if current.effects and current.val_score < self.floor_factor * floor:
-            reasons.append(f"the model is already within {self.floor_factor:g}x the noise floor "
-                           f"({current.val_score:.3g} vs {floor:.3g})")
         if not fm.bic < current.bic:
             reasons.append("BIC not improved")
         if not cand.ci_excludes_absent:
