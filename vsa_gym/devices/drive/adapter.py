@@ -22,6 +22,11 @@ from vsa_gym.identify.record import TRANSMISSIONS, Record
 START_SHARE = "start_share"
 #: nuisance parameter of a voltage input with a lag whose sidecar does not give b_emf: the back-EMF share of b
 EMF_SHARE = "emf_share"
+#: a nominal replay whose position spread exceeds the measured one by this factor ran away: the record's scales are
+#: then the measured position's (:meth:`DriveAdapter._scales`)
+RUNAWAY_SPREAD = 3.0
+#: window (s) of the central differences that give a measured position's peak speed
+SPEED_WINDOW = 0.01
 _DRIVE_OBS = {"position": 0, "velocity": 1, "speed_abs": 1, "force": 3, "controller_output": 4}
 
 
@@ -162,6 +167,28 @@ class DriveAdapter(Adapter):
         self.F_ref = float(np.max(np.abs(P[drive.PIDX["k_u"]] * xs[:, 4]))) or 1.0
         self.v_ref = float(np.max(np.abs(xs[:, 1]))) or 1.0
         self.x_ref = float(np.std(xs[:, 0])) or 1.0
+        measured = self._measured_scales()
+        if measured is not None and self.x_ref > RUNAWAY_SPREAD * measured[0]:
+            # the nominal replay ran away (an open-loop replay of a vertical axis without its weight, of a closed
+            # loop's integrating plant): bounds and typical sizes scaled on it describe the runaway, not the record
+            # (truth case 29008: a Stribeck curve of v_s = 4.9 m/s, 260x the record's own speeds, passed for its
+            # Coulomb friction), so the position spread and the peak speed are the measured position's
+            self.x_ref, self.v_ref = measured
+
+    def _measured_scales(self) -> tuple[float, float] | None:
+        """Spread (std) and peak speed of the first measured position output, the speed from central
+        differences over :data:`SPEED_WINDOW` (a quantiser's counts average out) within each segment; None
+        without a position output."""
+        if self.loop_output is None:
+            return None
+        x = self.measured[:, self.loop_output]
+        w = max(1, int(round(0.5 * SPEED_WINDOW / self.dt)))
+        peaks = [float(np.max(np.abs(x[a + 2 * w:b] - x[a:b - 2 * w]))) / (2 * w * self.dt)
+                 for a, b in self.segments if b - a > 2 * w]
+        spread = float(np.std(x))
+        if not peaks or not spread or not max(peaks):
+            return None
+        return spread, max(peaks)
 
     def _effects(self) -> dict[str, EffectSpec]:
         """The drive library's effects that apply to this record (:mod:`vsa_gym.devices.drive.effects`), then the
