@@ -115,7 +115,8 @@ LIBRARY: tuple[Effect, ...] = (
         Param("width", _lin, 0.0, lambda a: 0.2 * a.x_ref, 0.0, lambda a: 0.005 * a.x_ref),
         # the contact's mode (Hz) and damping ratio on the reduced mass, held at the drive model's stiff, well
         # damped contact unless freeing them validates better (teeth behind a shaft ring and bounce)
-        Param("f_contact", "Hz", 10.0, 300.0, F_CONTACT, F_CONTACT, main=False, check_bound=False, optional=True),
+        Param("f_contact", "Hz", 10.0, 300.0, F_CONTACT, F_CONTACT, main=False, check_bound=False, optional=True,
+              grid=9),
         Param("zeta_contact", "-", 0.02, 1.0, ZETA_CONTACT, ZETA_CONTACT, main=False, check_bound=False,
               optional=True),
         # where in the gap the motor sat at the first sample (a share of the half gap, -1..1): a record does not
