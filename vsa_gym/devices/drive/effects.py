@@ -1,8 +1,10 @@
 """The generic drive's effect library (:mod:`vsa_gym.identify.library`): what
 :class:`vsa_gym.devices.drive.adapter.DriveAdapter` may name, with bounds scaled to the record (``F_ref``: the peak
-nominal drive force, ``v_ref``: the peak speed, ``x_ref``: the position spread, all of the nominal replay) and the
-magnitudes the synthetic drive records plant (:mod:`vsa_gym.devices.drive.synthetic`).  The equations are the drive
-model's (:mod:`vsa_gym.devices.drive.model`, parameter mapping in ``DriveAdapter.param_matrix``).
+nominal drive force, ``v_ref``: the peak speed, ``x_ref``: the position spread, all of the nominal replay, or of
+the measured position where that replay runs away, see ``RUNAWAY_SPREAD`` in
+:mod:`vsa_gym.devices.drive.adapter`) and the magnitudes the synthetic drive records plant
+(:mod:`vsa_gym.devices.drive.synthetic`).  The equations are the drive model's
+(:mod:`vsa_gym.devices.drive.model`, parameter mapping in ``DriveAdapter.param_matrix``).
 """
 
 from __future__ import annotations
