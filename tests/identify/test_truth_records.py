@@ -15,9 +15,13 @@ import json
 import numpy as np
 import pytest
 
+from tests.truthsim.plant import V_L
+from tests.truthsim.records import run
 from tests.truthsim.scenarios import MAIN, draw_case, write_case
 from vsa_gym.cli import main
+from vsa_gym.identify.adapters import make_adapter
 from vsa_gym.identify.pipeline import identify
+from vsa_gym.identify.record import load_record
 
 BASE = 20250 * 1000  # the benchmark's default case seeds: base seed * 1000 + index
 
@@ -224,18 +228,13 @@ def test_coulomb_friction_standing_in_for_viscous_friction_is_swapped_beside_a_m
 def test_record_scales_are_the_measured_ones_where_the_nominal_replay_runs_away(tmp_path):
     """A vertical axis replayed open loop without its weight falls away: bounds and typical sizes scaled on that
     replay would describe the fall (case 29008 of ``--seed 29 --draws 0 --pairs 24``: a Stribeck curve of
-    v_s = 4.9 m/s, 260x the record's speeds, passed for its Coulomb friction).  The adapter takes the measured
-    position's spread and peak speed instead; the peak speed is checked against the truth simulator's own."""
-    from tests.truthsim.plant import V_L
-    from tests.truthsim.records import run
-    from vsa_gym.devices.drive import model as drive
-    from vsa_gym.identify.adapters import make_adapter
-    from vsa_gym.identify.record import load_record
-
+    v_s = 4.9 m/s, 8x the record's peak speed and flat over it, passed for its Coulomb friction).  The adapter takes
+    the measured position's spread and peak speed instead; the peak speed is checked against the truth simulator's
+    own."""
     case = draw_case(29008, ("coulomb_friction", "force_offset"))
     ad = make_adapter(load_record(write_case(case, tmp_path)))
     x = ad.measured[:, ad.loop_output]
-    replay = drive.simulate(ad.param_matrix({}, 1), ad.u, ad.dt, x0=ad.x0)[:, 0, 0]
+    replay = ad.simulate({}, 1)[:, 0, ad.loop_output]
     assert np.std(replay) > 30 * np.std(x)  # the nominal replay runs away
     assert ad.x_ref == pytest.approx(float(np.std(x)), rel=1e-12)
     v_true = float(np.max(np.abs(run(case).x[:, V_L])))

@@ -237,8 +237,8 @@ class Identifier:
             if not remaining:
                 break
             if current.effects and current.val_score < self.floor_factor * floors["validation"]:
-                # every further candidate would be refused by this rule of :meth:`_judge` whatever its fit: none is
-                # ranked or fitted (the choice is the same, without their replays)
+                # a further effect must be most of a misfit well above the noise floor: none is ranked or fitted
+                # (the runner-up branch needs BRANCH_FLOOR x the floor, so it is not taken either)
                 reason = (f"not fitted: the model is already within {self.floor_factor:g}x the noise floor "
                           f"({current.val_score:.3g} vs {floors['validation']:.3g})")
                 cands += [Candidate(rnd, name, float("nan"), reason=reason) for name in remaining]

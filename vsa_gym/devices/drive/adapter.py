@@ -171,8 +171,8 @@ class DriveAdapter(Adapter):
         if measured is not None and self.x_ref > RUNAWAY_SPREAD * measured[0]:
             # the nominal replay ran away (an open-loop replay of a vertical axis without its weight, of a closed
             # loop's integrating plant): bounds and typical sizes scaled on it describe the runaway, not the record
-            # (truth case 29008: a Stribeck curve of v_s = 4.9 m/s, 260x the record's own speeds, passed for its
-            # Coulomb friction), so the position spread and the peak speed are the measured position's
+            # (truth case 29008: a Stribeck curve of v_s = 4.9 m/s, 8x the record's peak speed and flat over it, passed
+            # for its Coulomb friction), so the position spread and the peak speed are the measured position's
             self.x_ref, self.v_ref = measured
 
     def _measured_scales(self) -> tuple[float, float] | None:
