@@ -68,6 +68,14 @@ class Adapter:
     def set_shooting(self, window: float | None) -> None:
         raise ValueError(f"{type(self).__name__} has no multiple-shooting replay")
 
+    def restarts(self, effect: str, theta: Mapping[str, float]) -> dict[str, float]:
+        """Values of the model's free base parameters that a candidate ``effect`` is also fitted from, besides
+        where the model before it (``theta``) holds them (empty: none).  A nuisance parameter that only matters
+        once the effect is in can sit anywhere in its range before (the drive's back-EMF share of ``b``: where
+        the damping acts makes no difference to a rigid drive, all the difference once a gap splits it into
+        motor and load), and a local fit started there may never leave."""
+        return {}
+
     # -- shared
     def _sensor_effects(self) -> dict[str, EffectSpec]:
         y0 = self.measured[:, 0]

@@ -9,7 +9,7 @@ validation part; :func:`compared` says on which part two models are judged again
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -179,6 +179,12 @@ def without_keys(fm: FittedModel, keys: Collection[str]) -> FittedModel:
                                at_bound=[k for k in fm.at_bound if k not in keys])
 
 
+def with_values(fm: FittedModel, values: Mapping[str, float]) -> FittedModel:
+    """``fm`` with the free parameters ``values`` moved there (not refitted; scores are ``fm``'s)."""
+    return dataclasses.replace(fm, values=np.array([values.get(k, v) for k, v in zip(fm.keys, fm.values,
+                                                                                      strict=True)]))
+
+
 def without_effect(fm: FittedModel, name: str) -> FittedModel:
     """``fm`` with effect ``name`` and its parameters taken out (not refitted; scores are ``fm``'s)."""
     reduced = without_keys(fm, [k for k in fm.keys if k.startswith(f"{name}.")])
@@ -203,4 +209,4 @@ def lstsq_sse(A: np.ndarray, r: np.ndarray) -> float:
     return float(np.dot(e, e))
 
 __all__ = ["SimulationErrorProblem", "compared", "effect_evidence", "fit_model", "lstsq_sse", "part_end",
-           "part_nrmse", "validation_blind", "without_effect"]
+           "part_nrmse", "validation_blind", "with_values", "without_effect"]

@@ -44,6 +44,7 @@ from vsa_gym.identify.fitting import (
     lstsq_sse,
     part_end,
     validation_blind,
+    with_values,
     without_effect,
 )
 from vsa_gym.identify.record import Record
@@ -384,6 +385,15 @@ class Identifier:
             alt = fit_model(ad, {}, keys, specs, {**init, **split}, masks, (*current.effects, name), self.max_nfev)
             if alt.sse_fit < fm.sse_fit:
                 fm = alt
+        # a nuisance parameter that only matters once this effect is in is also started where the adapter says
+        # (Adapter.restarts), the new effect's main parameter searched again from there
+        restart = ad.restarts(name, current.theta())
+        if restart:
+            moved = with_values(current, restart)
+            alt = fit_model(ad, {}, keys, specs, {**init, **restart, **main_start(ad, moved, spec, masks["fit"])},
+                            masks, (*current.effects, name), self.max_nfev)
+            if alt.sse_fit < fm.sse_fit:
+                fm = alt
         if len(held) == len(spec.keys):
             return fm
         # the optional shape parameters are freed only where that validates better by the margin; the free fit
@@ -473,10 +483,12 @@ class Identifier:
         owner: list[str] = []  # the candidate of each signature row
         for name in names:
             spec = ad.effects[name]
-            for size in self._rank_sizes(spec):
-                rows.append({**theta0, **{k: p.typical for k, p in zip(spec.keys, spec.params, strict=True)},
-                             **size})
-                owner.append(name)
+            restart = ad.restarts(name, theta0)  # its signature is also taken from where it is also fitted
+            for moved in ({}, restart) if restart else ({},):
+                for size in self._rank_sizes(spec):
+                    rows.append({**theta0, **moved, **{k: p.typical for k, p in zip(spec.keys, spec.params,
+                                                                                      strict=True)}, **size})
+                    owner.append(name)
         keys = sorted({k for r in rows for k in r})
         n = len(rows)
         theta = {}

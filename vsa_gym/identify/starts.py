@@ -23,6 +23,10 @@ SHAPE_GRID = 5
 #: replay a force 2x off runs away as far as one 4x off
 MAIN_SIZES: tuple[float, ...] = (0.25, 1.0, 4.0, 16.0)
 MAIN_SIZES_SHAPED: tuple[float, ...] = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
+#: multiples of the held fit's main parameter at which a shape is searched with it (:func:`shape_starts`), and the
+#: finer multiples of the best grid point's main parameter then tried at its shape
+SHAPE_MAIN_SIZES: tuple[float, ...] = (0.5, 1.0, 2.0)
+SHAPE_REFINE: tuple[float, ...] = (0.6, 0.7, 0.8, 0.9, 1.1, 1.25, 1.4, 1.6)
 #: shares of an accepted effect's force a new effect of the same kind of force starts with (:func:`split_start`)
 SPLIT_SHARES: tuple[float, ...] = (0.25, 0.5, 0.75)
 
@@ -66,8 +70,9 @@ def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarra
     """Start of an effect's optional shape parameters (with its main parameter): the best fit-part cost on a
     grid of shapes (``SHAPE_GRID`` points, or the parameter's own ``grid``, over each shape parameter's range,
     log-spaced where it is positive, plus its typical value) times main sizes (the held fit's value at 0.5x, 1x
-    and 2x, and the typical size), all replayed in one batch.  Empty where the held fit's own point (the
-    shapes at their held default, ``absent``) is the best.  With switches (``ParamSpec.switch``): the best
+    and 2x, and the typical size), all replayed in one batch, the best point's main size then refined at its
+    shape (``SHAPE_REFINE``).  Empty where the held fit's own point (the shapes at their held default,
+    ``absent``) is the best.  With switches (``ParamSpec.switch``): the best
     point with every switch off, then the best with one on (``switches=False``: only the first); a shape
     that a switch on leaves out of the equations (``dead_with``) stays at its default on those points."""
     keys, params = list(spec.keys), list(spec.params)
@@ -84,7 +89,7 @@ def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarra
             axes.append(np.array([p.absent]))
         elif p.main:
             v = theta[k]
-            g = [p.absent + f * (v - p.absent) for f in (0.5, 1.0, 2.0)] + [p.typical]
+            g = [p.absent + f * (v - p.absent) for f in SHAPE_MAIN_SIZES] + [p.typical]
             axes.append(np.unique([x for x in g if p.lower < x < p.upper] or [v]))
         else:
             axes.append(np.array([theta.get(k, p.typical)]))
@@ -99,13 +104,35 @@ def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarra
     pts = pts[keep]
     sse = _batch_cost(prob, pts)
     on = np.any(pts[:, sw] != np.array([params[i].absent for i in sw]), axis=1) if sw else np.zeros(len(pts), bool)
-    starts = []
+    bests: list[np.ndarray | None] = []  # each group's best point (None: the held fit's own)
+    best_sse: list[float] = []
     for group in ((~on, on) if sw and switches else (~on,)):
         rows = np.flatnonzero(group)
         best = int(rows[np.argmin(sse[rows])])
         held_best = group[0] and (best == 0 or not sse[best] < sse[0])  # the off group holds the held point
-        starts.append({} if held_best else dict(zip(keys, map(float, pts[best]), strict=True)))
-    return starts
+        bests.append(None if held_best else pts[best])
+        best_sse.append(float(sse[best]))
+    # a shape and the main size are coupled (a stiffer contact leaves a narrower gap), and sizes 2x apart are too
+    # coarse to start a fit from where the error is rough (truth case 29002: the gap 26 % wide at the held
+    # contact, and the free fit never left the grid point): the best points' main sizes are refined at their
+    # shapes (SHAPE_REFINE), in one batch
+    i_main = keys.index(spec.main_param[0])
+    p_main = params[i_main]
+    fine: list[np.ndarray] = []
+    owner: list[int] = []
+    for j, pt in enumerate(bests):
+        for f in SHAPE_REFINE if pt is not None else ():
+            v = p_main.absent + f * (pt[i_main] - p_main.absent)
+            if p_main.lower < v < p_main.upper:
+                fine.append(pt.copy())
+                fine[-1][i_main] = v
+                owner.append(j)
+    if fine:
+        cost = _batch_cost(prob, np.array(fine))
+        for i in range(len(fine)):
+            if cost[i] < best_sse[owner[i]]:
+                bests[owner[i]], best_sse[owner[i]] = fine[i], float(cost[i])
+    return [{} if pt is None else dict(zip(keys, map(float, pt), strict=True)) for pt in bests]
 
 
 def main_start(ad: Adapter, current: FittedModel, spec: EffectSpec, mask: np.ndarray) -> dict[str, float]:
