@@ -119,10 +119,7 @@ LIBRARY: tuple[Effect, ...] = (
         # damped contact unless freeing them validates better (teeth behind a shaft ring and bounce)
         Param("f_contact", "Hz", 10.0, 300.0, F_CONTACT, F_CONTACT, main=False, check_bound=False, optional=True,
               grid=9),
-        # a contact pressed to either end of its damping range is not a tooth contact but a gap standing in for
-        # something else (truth case 41046: a 15 Hz contact damped at the bound 1.0 validated 7 % better than the
-        # planted sensor delay), so the bound is checked like a main parameter's
-        Param("zeta_contact", "-", 0.02, 1.0, ZETA_CONTACT, ZETA_CONTACT, main=False,
+        Param("zeta_contact", "-", 0.02, 1.0, ZETA_CONTACT, ZETA_CONTACT, main=False, check_bound=False,
               optional=True),
         # where in the gap the motor sat at the first sample (a share of the half gap, -1..1): a record does not
         # say, and in an open-loop replay the load position it leads to stays shifted ever after (a sensor offset
