@@ -197,8 +197,9 @@ class DriveAdapter(Adapter):
         back-EMF share is free and the model before holds less than half: in a rigid drive the share only sets
         whether ``b`` acts through the winding's lag, and the nominal fit may leave it at 0, but with two
         masses it says whether ``b`` damps the motor or the load, and a motor that crosses its gap undamped
-        fits a voltage drive's gap worse than no gap (truth case 29002: the true gap validated at 0.0060 with
-        share 0 against 0.0061 for Coulomb friction alone, at 0.00026 with share 0.99)."""
+        fits a voltage drive's gap worse than no gap (truth case 29002: the true gap validated at 0.0064 with
+        share 0 against 0.0061 for Coulomb friction alone, at 0.00025 with share 0.99; the command is in
+        docs/identification.md, "Nuisance parameters that only matter once an effect is in")."""
         key = f"base.{EMF_SHARE}"
         if effect in SPLITTING and key in theta and theta[key] < 0.5:
             return {key: 1.0}
