@@ -45,12 +45,18 @@ def test_a_shape_dead_with_its_switch_is_held_on_every_point_where_the_switch_is
 
     monkeypatch.setattr(SimulationErrorProblem, "batch", spy)
     off, on = starts.shape_starts(ad, held, spec, masks["fit"])
-    pts = seen[-1]
+    pts, *refined = seen  # the grid, then the main size refined at each group's best point
+    assert len(refined) == 1 and len(refined[0]) > 0
     sticking = pts[:, i_xs] != spec.params[i_xs].absent
     assert sticking.any() and (~sticking).any()
     assert np.all(pts[sticking, i_vt] == spec.params[i_vt].absent)  # v_t not searched while it sticks
     assert len(np.unique(pts[~sticking, i_vt])) > 2  # but searched while it creeps
     assert on["coulomb_friction.x_stick"] > 0.0 and off.get("coulomb_friction.x_stick", 0.0) == 0.0
+    # the refinement moves only the main size: every refined point keeps a grid point's shape
+    i_fc = spec.keys.index("coulomb_friction.F_c")
+    shape = [i for i in range(len(spec.keys)) if i != i_fc]
+    for row in refined[0]:
+        assert np.any(np.all(pts[:, shape] == row[shape], axis=1))
 
 
 def test_a_switch_already_on_is_tried_on_and_off_for_a_second_friction_term(coulomb_case):
