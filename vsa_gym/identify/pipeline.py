@@ -378,22 +378,19 @@ class Identifier:
         held = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if not p.optional]
         keys, specs = current.keys + [k for k, _ in held], current.specs + [p for _, p in held]
         fm = fit_model(ad, {}, keys, specs, init, masks, (*current.effects, name), self.max_nfev)
-        # beside an accepted effect that is the same kind of force, the new one is also started with a share of
-        # that force; the start whose fit leaves the smaller fit-part error is kept
-        split = split_start(ad, current, spec, masks["fit"])
-        if split:
-            alt = fit_model(ad, {}, keys, specs, {**init, **split}, masks, (*current.effects, name), self.max_nfev)
-            if alt.sse_fit < fm.sse_fit:
-                fm = alt
-        # a nuisance parameter that only matters once this effect is in is also started where the adapter says
-        # (Adapter.restarts), the new effect's main parameter searched again from there
+        # other starts, the fit that leaves the smallest fit-part error kept: beside an accepted effect that is the
+        # same kind of force, the new one with a share of that force (split_start); a nuisance parameter that only
+        # matters once this effect is in, where the adapter says (Adapter.restarts), the new effect's main
+        # parameter searched again from there
+        others = [split_start(ad, current, spec, masks["fit"])]
         restart = ad.restarts(name, current.theta())
         if restart:
-            moved = with_values(current, restart)
-            alt = fit_model(ad, {}, keys, specs, {**init, **restart, **main_start(ad, moved, spec, masks["fit"])},
-                            masks, (*current.effects, name), self.max_nfev)
-            if alt.sse_fit < fm.sse_fit:
-                fm = alt
+            others.append({**restart, **main_start(ad, with_values(current, restart), spec, masks["fit"])})
+        for start in others:
+            if start:
+                alt = fit_model(ad, {}, keys, specs, {**init, **start}, masks, (*current.effects, name), self.max_nfev)
+                if alt.sse_fit < fm.sse_fit:
+                    fm = alt
         if len(held) == len(spec.keys):
             return fm
         # the optional shape parameters are freed only where that validates better by the margin; the free fit

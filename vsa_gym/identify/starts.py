@@ -113,9 +113,9 @@ def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarra
         bests.append(None if held_best else pts[best])
         best_sse.append(float(sse[best]))
     # a shape and the main size are coupled (a stiffer contact leaves a narrower gap), and sizes 2x apart are too
-    # coarse to start a fit from where the error is rough (truth case 29002: the gap 26 % wide at the held
-    # contact, and the free fit never left the grid point): the best points' main sizes are refined at their
-    # shapes (SHAPE_REFINE), in one batch
+    # coarse to start a fit from where the error is rough (truth case 29002: the best grid point kept the held
+    # fit's too wide gap, and the free fit accepted no step from it): the best points' main sizes are refined at
+    # their shapes (SHAPE_REFINE), in one batch
     i_main = keys.index(spec.main_param[0])
     p_main = params[i_main]
     fine: list[np.ndarray] = []
