@@ -4,7 +4,7 @@
 
 The case is drawn as :mod:`benchmarks.identify_truth` draws it (``draw_case(CASE_SEED, EFFECTS)``).  The
 replay prints the fit-part and validation NRMSE of the nominal model and of the model with the parameters
-given by ``--at`` (identification keys, e.g. ``backlash.width=0.0078``, ``stribeck_friction.x_stick=7.8e-9``);
+given by ``--at`` (identification keys, e.g. ``backlash.width=0.0078``, ``stribeck_friction.sticks=1``);
 ``--identify`` then runs ``vsa-gym identify`` on the record as a user would (its JSON holds the noise floor,
 ``noise_floor_nrmse``).  This is how the single-case figures in docs/identification.md are made (e.g.
 case 11006: the true Stribeck friction with and without a stick travel).

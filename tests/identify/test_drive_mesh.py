@@ -60,18 +60,49 @@ def test_mesh_never_delivers_more_power_than_it_receives():
         assert mesh_in - mesh_out >= -1e-6 * abs(mesh_in)
 
 
-def test_stiction_bristle_holds_without_creep_and_slides_beyond_the_breakaway_force():
-    """With a stiction travel x_c the load holds below F_c (displacement < x_c, no creep); above it slides."""
-    F_c, x_c = 5.0, 1e-6
-    p = DriveParams(m=M, k_u=1.0, F_c=F_c, x_c=x_c, v_eps=1e-3)
+def test_friction_that_sticks_holds_exactly_and_slides_beyond_the_breakaway_force():
+    """With ``sticks`` the load at rest holds below F_c without moving at all (the tanh law creeps); above it
+    slides with (F - F_c) / m."""
+    F_c = 5.0
+    p = DriveParams(m=M, k_u=1.0, F_c=F_c, sticks=1.0, v_eps=1e-3)
     held = simulate(p.vector(1), np.full(3000, 0.9 * F_c), 1e-3)[:, 0, 0]
-    assert np.max(np.abs(held)) < x_c
-    assert abs(held[-1] - held[1500]) < 1e-3 * x_c  # no creep once settled
+    assert np.all(held == 0.0)
     tanh_law = simulate(DriveParams(m=M, k_u=1.0, F_c=F_c, v_eps=1e-3).vector(1), np.full(3000, 0.9 * F_c),
                         1e-3)[:, 0, 0]
-    assert tanh_law[-1] > 100 * x_c  # the regularised law creeps
+    assert tanh_law[-1] > 1e-4  # the regularised law creeps
     slid = simulate(p.vector(1), np.full(1001, 1.5 * F_c), 1e-3)[:, 0, 1]
-    assert slid[-1] == pytest.approx(0.5 * F_c / M * 1.0, rel=1e-2)  # (1.5 F_c - F_c) / m after 1 s
+    assert slid[-1] == pytest.approx(0.5 * F_c / M * 1.0, rel=1e-9)  # (1.5 F_c - F_c) / m after 1 s
+
+
+def test_stick_slip_events_are_located_inside_the_sample():
+    """The mode changes fall between samples and are located there, one substep per sample: a load sliding at
+    v0 against friction alone stops at t = m v0 / F_c after m v0^2 / (2 F_c) and stays; under a force ramp
+    r t it breaks away at t* = F_c / r and then moves r (t - t*)^3 / (6 m)."""
+    F_c, v0, dt = 5.0, 0.37, 1e-2
+    p = DriveParams(m=M, k_u=1.0, F_c=F_c, sticks=1.0)
+    x0 = np.zeros(N_STATE)
+    x0[[1, 3]] = v0
+    y = simulate(p.vector(1), np.zeros(40), dt, x0=x0, n_sub=1)[:, 0, :]
+    t_stop = M * v0 / F_c  # 0.148 s: between samples 14 and 15
+    before = np.arange(40) * dt < t_stop
+    np.testing.assert_allclose(y[before, 1], v0 - F_c / M * np.arange(40)[before] * dt, atol=1e-12)
+    assert np.all(y[~before, 1] == 0.0)
+    np.testing.assert_allclose(y[~before, 0], M * v0**2 / (2 * F_c), rtol=1e-12)
+    r = 40.0  # N/s: breaks away at 0.125 s, between samples
+    t = np.arange(60) * dt
+    ramp = simulate(p.vector(1), r * t, dt, n_sub=1)[:, 0, 0]
+    # the force is held over each sample (zero-order hold): integrate that staircase exactly
+    exact = np.zeros_like(t)
+    x = v = 0.0
+    for k in range(1, len(t)):
+        f = r * t[k - 1]
+        if v == 0.0 and f <= F_c:
+            exact[k] = x
+            continue
+        a = (f - F_c) / M
+        x, v = x + v * dt + 0.5 * a * dt**2, v + a * dt
+        exact[k] = x
+    np.testing.assert_allclose(ramp, exact, atol=1e-12)
 
 
 @pytest.mark.parametrize("delta", [1.0, 1.5, 2.0])

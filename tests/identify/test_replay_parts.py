@@ -20,11 +20,14 @@ def _case(seed: int, folder):
 
 
 def _candidates(ad, n: int, rng: np.random.Generator) -> dict[str, np.ndarray]:
-    """``n`` candidates of stiff and soft friction and backlash around the effects' typical sizes."""
+    """``n`` candidates of friction that sticks or creeps (sharply or not), and backlash of stiff and soft
+    contacts, around the effects' typical sizes."""
     c, b = ad.effects["coulomb_friction"], ad.effects["backlash"]
     return {"coulomb_friction.F_c": c.params[0].typical * rng.uniform(0.2, 2.0, n),
-            "coulomb_friction.x_stick": np.where(rng.random(n) < 0.5, 0.0, 10.0 ** rng.uniform(-9, -6, n)),
-            "backlash.width": b.params[0].typical * rng.uniform(0.0, 2.0, n)}
+            "coulomb_friction.sticks": np.where(rng.random(n) < 0.5, 0.0, 1.0),
+            "backlash.width": b.params[0].typical * rng.uniform(0.0, 2.0, n),
+            "coulomb_friction.v_t": float(ad.params.v_eps) * 10.0 ** rng.uniform(-2.0, 0.0, n),
+            "backlash.f_contact": 10.0 ** rng.uniform(1.3, 2.5, n)}
 
 
 @pytest.mark.parametrize("seed, shooting", [(20250901, None), (20250907, None), (20250907, 0.5)],
@@ -48,7 +51,7 @@ def test_simulate_until_and_rows_are_the_whole_batch_bit_for_bit(tmp_path, seed,
 
 def test_residual_alone_then_jacobian_equal_one_batch(tmp_path):
     ad, masks = _case(20250901, tmp_path)
-    keys = ["coulomb_friction.F_c", "coulomb_friction.x_stick", "backlash.width"]
+    keys = ["coulomb_friction.F_c", "coulomb_friction.sticks", "backlash.width"]
     specs = [ad.effects[k.split(".")[0]].params[ad.effects[k.split(".")[0]].keys.index(k)] for k in keys]
     x = np.array([1.3, 0.0, 0.8])
     split = SimulationErrorProblem(ad, {}, keys, specs, masks["fit"])

@@ -34,7 +34,7 @@ def coulomb_case(tmp_path_factory):
 def test_a_shape_dead_with_its_switch_is_held_on_every_point_where_the_switch_is_on(coulomb_case, monkeypatch):
     ad, masks, held = coulomb_case
     spec = ad.effects["coulomb_friction"]
-    i_vt, i_xs = spec.keys.index("coulomb_friction.v_t"), spec.keys.index("coulomb_friction.x_stick")
+    i_vt, i_xs = spec.keys.index("coulomb_friction.v_t"), spec.keys.index("coulomb_friction.sticks")
     assert spec.params[i_vt].dead_with == spec.params[i_xs].name and spec.params[i_xs].switch
     seen = []
     original = SimulationErrorProblem.batch
@@ -51,7 +51,7 @@ def test_a_shape_dead_with_its_switch_is_held_on_every_point_where_the_switch_is
     assert sticking.any() and (~sticking).any()
     assert np.all(pts[sticking, i_vt] == spec.params[i_vt].absent)  # v_t not searched while it sticks
     assert len(np.unique(pts[~sticking, i_vt])) > 2  # but searched while it creeps
-    assert on["coulomb_friction.x_stick"] > 0.0 and off.get("coulomb_friction.x_stick", 0.0) == 0.0
+    assert on["coulomb_friction.sticks"] > 0.0 and off.get("coulomb_friction.sticks", 0.0) == 0.0
     # the refinement moves only the main size: every refined point keeps a grid point's shape
     i_fc = spec.keys.index("coulomb_friction.F_c")
     shape = [i for i in range(len(spec.keys)) if i != i_fc]
@@ -62,9 +62,9 @@ def test_a_shape_dead_with_its_switch_is_held_on_every_point_where_the_switch_is
 def test_a_switch_already_on_is_tried_on_and_off_for_a_second_friction_term(coulomb_case):
     ad, masks, held = coulomb_case
     spec = ad.effects["coulomb_friction"]
-    i_xs = spec.keys.index("coulomb_friction.x_stick")
-    sticking = fit_model(ad, {}, held.keys + ["coulomb_friction.x_stick"], held.specs + [spec.params[i_xs]],
-                         {**held.theta(), "coulomb_friction.x_stick": spec.params[i_xs].typical}, masks,
+    i_xs = spec.keys.index("coulomb_friction.sticks")
+    sticking = fit_model(ad, {}, held.keys + ["coulomb_friction.sticks"], held.specs + [spec.params[i_xs]],
+                         {**held.theta(), "coulomb_friction.sticks": spec.params[i_xs].typical}, masks,
                          held.effects, 5)
     stribeck = ad.effects["stribeck_friction"]
     f_s = stribeck.params[0]
@@ -76,12 +76,12 @@ def test_a_switch_already_on_is_tried_on_and_off_for_a_second_friction_term(coul
 
     variants = starts.shape_variants(ad, sticking, with_stribeck(sticking), stribeck, masks["fit"])
     bases = [set(base.keys) for base, _ in variants]
-    assert bases == [set(sticking.keys), set(sticking.keys) - {"coulomb_friction.x_stick"}]
-    for _, shape in variants:  # the new term's own stick travel stays off: one friction, one switch
-        assert shape.get("stribeck_friction.x_stick", 0.0) == 0.0
+    assert bases == [set(sticking.keys), set(sticking.keys) - {"coulomb_friction.sticks"}]
+    for _, shape in variants:  # the new term's own switch stays off: one friction, one switch
+        assert shape.get("stribeck_friction.sticks", 0.0) == 0.0
     # without a switch on in the model, the new term's switch is tried itself (off, then on)
     alone = starts.shape_variants(ad, held, with_stribeck(held), stribeck, masks["fit"])
-    assert [base for base, _ in alone] == [held, held] and alone[1][1]["stribeck_friction.x_stick"] > 0.0
+    assert [base for base, _ in alone] == [held, held] and alone[1][1]["stribeck_friction.sticks"] > 0.0
 
 
 def test_only_forces_of_one_kind_at_one_place_share_a_force(coulomb_case):

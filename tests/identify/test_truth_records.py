@@ -158,7 +158,7 @@ def test_a_second_friction_term_is_also_fitted_with_the_first_creeping(tmp_path)
     got = {e["name"]: e["parameters"] for e in res["effects"]}
     assert got["coulomb_friction"]["F_c"] == pytest.approx(truth["main"]["coulomb_friction"], rel=0.15)
     assert got["stribeck_friction"]["F_s"] == pytest.approx(truth["main"]["stribeck_friction"], rel=0.15)
-    assert got["coulomb_friction"]["x_stick"] == 0.0 and got["stribeck_friction"]["x_stick"] == 0.0
+    assert got["coulomb_friction"]["sticks"] == 0.0 and got["stribeck_friction"]["sticks"] == 0.0
 
 
 def test_dahl_loop_started_on_a_grid_of_travels_is_named_not_coulomb_friction(tmp_path):

@@ -66,8 +66,13 @@ class ParamSpec:
     @property
     def switch(self) -> bool:
         """An optional shape whose held default lies outside its fitted range: off at the default, on within
-        the range (the drive's ``x_stick``: 0 is friction that creeps, a travel in range friction that sticks)."""
+        the range (the drive's ``sticks``: 0 is friction that creeps, 1 friction that sticks)."""
         return self.optional and not self.lower <= self.absent <= self.upper
+
+    @property
+    def pinned(self) -> bool:
+        """A range of one value (a switch with one "on" state): held there, never fitted."""
+        return self.lower == self.upper
 
     def clip(self, v: float) -> float:
         return float(min(max(v, self.lower), self.upper))

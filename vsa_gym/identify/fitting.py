@@ -98,7 +98,18 @@ class SimulationErrorProblem:
 def fit_model(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list[ParamSpec], init: dict[str, float],
               masks: dict[str, np.ndarray], effects: tuple[str, ...], max_nfev: int) -> FittedModel:
     """Fit ``keys`` (from ``init``, the others held at ``fixed``) to the fit part by simulation error; the result
-    carries CIs, the validation and fit-part NRMSE and the validation replay."""
+    carries CIs, the validation and fit-part NRMSE and the validation replay.  A pinned key (a switch with one
+    "on" value, :attr:`ParamSpec.pinned`) is held there: listed in the result, with a CI of zero width."""
+    pinned = {k: s.lower for k, s in zip(keys, specs, strict=True) if s.pinned}
+    if pinned:
+        free = [(k, s) for k, s in zip(keys, specs, strict=True) if k not in pinned]
+        fm = fit_model(ad, {**fixed, **pinned}, [k for k, _ in free], [s for _, s in free], init, masks, effects,
+                       max_nfev)
+        got = dict(zip(fm.keys, zip(fm.values, fm.ci, strict=True), strict=True))
+        got.update({k: (v, np.array([v, v])) for k, v in pinned.items()})
+        return dataclasses.replace(fm, keys=list(keys), specs=list(specs),
+                                   values=np.array([got[k][0] for k in keys]),
+                                   ci=np.array([got[k][1] for k in keys]).reshape(len(keys), 2))
     prob = SimulationErrorProblem(ad, fixed, keys, specs, masks["fit"])
     lo, hi = prob.bounds()
     x0 = np.clip(prob.to_x(np.array([init[k] for k in keys])), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))

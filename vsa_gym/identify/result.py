@@ -158,7 +158,8 @@ class IdentificationResult:
             unit = f" {main.unit}" if main.unit and main.unit != "-" else ""
             # a shape parameter the data asked to free (held at its default otherwise) is part of the cause
             freed = set(self.final.keys)
-            shapes = "".join(f"; {p.name} = {e['parameters'][p.name]:.3g}"
+            shapes = "".join(f"; {p.name}" if p.pinned else  # a switch: on
+                             f"; {p.name} = {e['parameters'][p.name]:.3g}"
                              f"{f' {p.unit}' if p.unit and p.unit != '-' else ''} (freed; held at {p.absent:.3g})"
                              for p in spec.params if p.optional and f"{e['name']}.{p.name}" in freed)
             # an effect accepted on the fit part alone (the validation part could not tell it apart) says so

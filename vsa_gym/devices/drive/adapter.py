@@ -240,10 +240,9 @@ class DriveAdapter(Adapter):
             P[:, I["v_s"]] = theta_column(theta, "stribeck_friction.v_s", n)
         if "stribeck_friction.delta" in theta:
             P[:, I["delta_s"]] = theta_column(theta, "stribeck_friction.delta", n)
-        for key in ("coulomb_friction.x_stick", "stribeck_friction.x_stick"):  # friction that truly sticks
+        for key in ("coulomb_friction.sticks", "stribeck_friction.sticks"):  # friction that truly sticks
             if key in theta:
-                x_stick = theta_column(theta, key, n)
-                P[:, I["x_c"]] = np.where(x_stick > 0.0, x_stick, P[:, I["x_c"]])
+                P[:, I["sticks"]] = np.where(theta_column(theta, key, n) > 0.0, 1.0, P[:, I["sticks"]])
         P[:, I["b"]] += theta_column(theta, "viscous_friction.b", n)
         P[:, I["backlash"]] += theta_column(theta, "backlash.width", n)
         P[:, I["m"]] *= 1.0 + theta_column(theta, "inertia_error.rel", n)

@@ -40,22 +40,13 @@ def _x_min(a: Any) -> float:
     return max(2e-4 * a.x_ref, 4.0 * _resolution(a))
 
 
-def _count(a: Any) -> float:
-    """One sensor count (4e-6 of the position spread where the record gives no resolution): the stick travel's
-    typical value; a quarter of it is the shortest fitted, since shorter travels change nothing the sensor can
-    see and only make the bristle stiffer."""
-    return _resolution(a) or 4e-6 * a.x_ref
-
-
-#: the travel over which friction that truly sticks gives way, ``x_c`` of the drive model's reset-integrator
-#: bristle (Haessig & Friedland 1991): held at 0 (the tanh law, which creeps at a speed of order v_eps under any
+#: friction that truly sticks, the drive model's ``sticks`` switch (exact stick-slip: set-valued at rest, its
+#: mode changes located as events): held off (the tanh law, which creeps at a speed of order v_eps under any
 #: force below the break-away) unless a stuck load validates better.  Real contacts stick: a closed loop at rest
 #: then holds a steady position error that a creeping law runs down (case 11006 of
 #: ``benchmarks.identify_truth --seed 11``: the true Stribeck friction validated at 300x the noise floor with the
-#: tanh law, near the floor with a one-count stick travel).  Above the presliding limit ``_x_min`` a travel is a
-#: resolved presliding regime (``hysteresis``), so the range ends there.
-STICK = Param("x_stick", _lin, lambda a: 0.25 * _count(a), _x_min, 0.0, _count, main=False, check_bound=False,
-              optional=True, grid=3)
+#: tanh law).  A switch with one "on" value: there is nothing to fit once it is on (``ParamSpec.pinned``).
+STICK = Param("sticks", "-", 1.0, 1.0, 0.0, 1.0, main=False, check_bound=False, optional=True)
 
 
 def _k_typ(a: Any) -> float:
@@ -86,14 +77,14 @@ LIBRARY: tuple[Effect, ...] = (
                                          # the speed over which the friction builds up, F_c tanh(v / v_t): held at
                                          # the model's regularisation v_eps (a sharp sign) unless freeing it
                                          # validates better (a lubricated contact that creeps instead of sticking);
-                                         # a friction that sticks (x_stick on) has no tanh, so v_t is held then
+                                         # a friction that sticks (sticks on) has no tanh, so v_t is held then
                                          Param("v_t", lambda a: f"{a.units[0]}/s", lambda a: a.params.v_eps,
                                                lambda a: 0.2 * a.v_ref, lambda a: a.params.v_eps,
                                                lambda a: a.params.v_eps, main=False, check_bound=False,
                                                optional=True, dead_with=STICK.name), STICK),
            enters="adds F_c to the drive's Coulomb friction F_c tanh(v / v_t) (v_t: the model's v_eps unless "
-                  "freed); with a stick travel x_stick > 0 the load sticks below the break-away force instead "
-                  "(reset-integrator bristle, x_c = x_stick)", when=lambda a: "F_c" not in a.free,
+                  "freed); with sticks = 1 the load sticks below the break-away force instead (exact stick-slip)",
+           when=lambda a: "F_c" not in a.free,
            synthetic={SYNTHETIC: {"F_c": (0.6, 2.0)}}, source=SOURCE),
     Effect("stribeck_friction", AT_LOAD, (
         Param("F_s", _rot, 0.0, lambda a: 0.5 * a.F_ref, 0.0, lambda a: 0.03 * a.F_ref),
@@ -106,7 +97,7 @@ LIBRARY: tuple[Effect, ...] = (
         # shape trades against F_s
         Param("delta", "-", 1.0, 2.0, 2.0, 2.0, main=False, check_bound=False, optional=True), STICK),
            enters="the static excess of the Stribeck steady state: F_f = (F_c + F_s exp(-|v/v_s|^delta)) "
-                  "tanh(v/v_eps) + b v, or sticking below F_c + F_s with a stick travel x_stick > 0",
+                  "tanh(v/v_eps) + b v, or sticking below F_c + F_s with sticks = 1",
            synthetic={SYNTHETIC: {"F_s": (1.0, 2.5), "v_s": (0.02, 0.05)}}, source=SOURCE),
     Effect("viscous_friction", AT_LOAD, (Param("b", lambda a: f"{a.units[1]} s/{a.units[0]}", 0.0,
                                                lambda a: 2 * a.F_ref / a.v_ref, 0.0,

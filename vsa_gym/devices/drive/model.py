@@ -40,15 +40,19 @@ Load friction (:mod:`vsa_gym.physics.friction` forms)::
 is the steady-state LuGre / Stribeck characteristic (``F_s`` is the static excess
 over Coulomb; ``delta_s`` its shape exponent, 2 for LuGre's Gaussian decay, 1 for Tustin's exponential)
 with the tanh regularisation of :func:`~vsa_gym.physics.friction.coulomb_viscous_moment`.
-With a stiction travel ``x_c > 0`` (a sidecar parameter; give it below the encoder's resolution)
-the friction sticks instead of creeping: a reset-integrator bristle ``z`` (Haessig & Friedland
-1991) with ``k_0 = (F_c + F_s) / x_c``::
+With ``sticks = 1`` (a sidecar parameter, or the friction effects' ``sticks`` switch) the friction sticks
+instead of creeping, as dry friction does: set-valued at rest, with no regularisation::
 
-    dz/dt = v  while |z| < x_c or z v < 0,   else 0
-    F_f = clip(k_0 z, -g(v), g(v)) + 2 sqrt(k_0 m_l) dz/dt + b v,   g(v) = F_c + F_s exp(-|v/v_s|^delta_s)
+    sliding (mode s = +-1):  F_f = s g(v) + b v,   g(v) = F_c + F_s exp(-|v/v_s|^delta_s)
+    stuck   (mode s = 0):    v_l = 0 while |F_held| <= F_c + F_s
 
-so the load holds against any force below ``F_c + F_s`` (a critically damped spring of travel
-``x_c``) and slides with ``g(v)`` beyond.  With ``x_c = 0`` (the default) the tanh law above
+where ``F_held`` is everything on the load but that friction.  The mode changes are events, located inside the
+substep (:func:`_stick_slip_substeps`: a secant on the load speed where it crosses zero, the time at which the
+held force reaches the break-away level), so the law is exact between them and sets no substeps.  (An earlier
+version approximated sticking by a reset-integrator bristle of a sub-count travel; its give-way took a time of
+order ``sqrt(m x_c / F_c)``, and on records of a simulator with exact stiction that lag left errors of several
+counts after every reversal, e.g. truth case 37018, which a wider backlash then absorbed.)  With ``sticks = 0``
+(the default) the tanh law above
 creeps at a speed of order ``v_eps`` under a force below the breakaway level.  ``h`` is a Dahl hysteresis force
 (``dh/dt = sigma_h (v - |v| h / F_h)``, presliding travel ``F_h / sigma_h``).  Its decay ``sigma_h |v| / F_h`` is
 linear in ``h`` and stiff where the presliding travel is short against the travel of one substep: rows with a
@@ -89,7 +93,7 @@ from vsa_gym.physics.steppers import etd_row_stepper, rk4_row_stepper
 
 PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
                            "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b",
-                           "b_emf", "x_c", "delta_s")
+                           "b_emf", "sticks", "delta_s")
 PIDX = {n: i for i, n in enumerate(PNAMES)}
 #: observables of the roll-out, in column order
 OBS: tuple[str, ...] = ("position", "velocity", "motor_position", "force", "controller_output")
@@ -141,9 +145,9 @@ class DriveParams(ParameterSet):
     b_emf: float = param(0.0, symbol="b_emf", unit="N s/m", source="record sidecar", tag="proposed", lower=0.0,
                          doc="the part of b that is a voltage-driven motor's back-EMF (k_t k_e n^2 / R): with a "
                              "lag tau_e = L / R it acts through the winding, tau_e dF/dt = k_u u - b_emf v - F")
-    x_c: float = param(0.0, symbol="x_c", unit="m", source="numerics", tag="numerics", lower=0.0,
-                       doc="stiction travel of the friction bristle (reset integrator); 0: tanh regularisation over "
-                           "v_eps. Below the sensor's resolution, so that stuck friction holds without creeping")
+    sticks: float = param(0.0, symbol="s", unit="-", source="record sidecar", tag="proposed", lower=0.0, upper=1.0,
+                          doc="1: the load friction sticks at rest (set-valued, exact stick-slip events); 0: the tanh "
+                              "law over v_eps, which creeps under a force below the break-away level")
     eta_b: float = param(0.0, symbol="eta_b", unit="-", source="effect", tag="proposed", lower=0.0, upper=1.0,
                          doc="back-driven transmission efficiency (load drives the motor); 0: the same as eta")
     delta_s: float = param(2.0, symbol="delta_s", unit="-", source="effect", tag="proposed", lower=0.0,
@@ -232,13 +236,13 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     g_v = F_c
     if F_s != 0.0:
         g_v += F_s * (np.exp(-(vl / v_s) ** 2) if d_s == 2.0 else np.exp(-abs(vl / v_s) ** d_s))
-    x_c = P[19]
-    if x_c > 0.0 and F_c + F_s > 0.0:
-        # reset-integrator bristle: a stiff spring while stuck (|z| < x_c), the sliding law g(v) beyond
-        k0 = (F_c + F_s) / x_c
-        dz = vl if (abs(z) < x_c or z * vl < 0.0) else 0.0
-        Ff = min(max(k0 * z, -g_v), g_v) + 2.0 * np.sqrt(k0 * (ml if two_mass else m)) * dz + b * vl
-        out[6] = dz
+    stuck = False
+    if P[19] > 0.0 and F_c + F_s > 0.0:
+        # friction that sticks (set-valued at rest): z is the mode, +-1 sliding that way, 0 stuck; the mode
+        # changes at events located by _stick_slip_substeps, so the law is exact between them
+        Ff = z * g_v + b * vl
+        stuck = z == 0.0
+        out[6] = 0.0
     else:
         Ff = g_v * np.tanh(vl / v_eps) + b * vl if g_v != 0.0 else b * vl
         out[6] = 0.0
@@ -253,7 +257,7 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
             w = _forward(Ft * vm, abs(Ft) * v_eps)
             Ft = Ft * (w / eta + (1.0 - w) * eta_b)
         out[0] = vl
-        out[1] = (Ft - load) / ml if ml > 0.0 else 0.0
+        out[1] = (Ft - load) / ml if ml > 0.0 and not stuck else 0.0
         out[2] = vm
         out[3] = (Fm - Ft) / mm
     else:
@@ -267,6 +271,8 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
             a = w * a_f + (1.0 - w) * a_b
         else:
             a = (Fm - load) / m
+        if stuck:
+            a = 0.0
         out[0] = vl
         out[1] = a
         out[2] = vl
@@ -285,6 +291,93 @@ rk4_row = rk4_row_stepper(point_rhs)
 #: column of the Dahl hysteresis force ``h`` in the state
 H_STATE = 5
 etd_row = etd_row_stepper(point_rhs, (H_STATE,))
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _held_force(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool) -> float:
+    """The force (N) the friction must take to hold the load at rest in state ``s``: everything on the load but
+    the Coulomb and Stribeck friction.  Rigid with a lossy mesh: the motor drives the load (``eta F_m``) where
+    that moves it the motor's way, the load back-drives the motor (``F_m / eta_b``) where that moves it against
+    the motor, and otherwise the mesh holds (0)."""
+    rest = P[8] + s[5] - fext  # F_0 + h - F_ext
+    if two_mass:
+        return _tforce(P, s[2] - s[0], s[3] - s[1]) - rest - P[1] * s[1]
+    Fm = s[4] if P[3] > 0.0 else P[2] * u
+    eta = P[13]
+    eta_b = P[17] if P[17] > 0.0 else eta
+    if eta >= 1.0 and eta_b >= 1.0:
+        return Fm - rest
+    fwd = eta * Fm - rest
+    if fwd * Fm > 0.0:
+        return fwd
+    back = Fm / eta_b - rest
+    if back * Fm < 0.0:
+        return back
+    return 0.0
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _one_step(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, s: np.ndarray, h: float,
+              ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray, nl: np.ndarray,
+              e: np.ndarray) -> None:
+    """One substep of ``h``: exponential RK4 for a row with a Dahl force, classical RK4 otherwise."""
+    if dahl:
+        lam = P[15] * abs(s[1]) / P[14]
+        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights_scalar(lam, h)
+        etd_row((P, u, fext, two_mass), s, h, 1, (lam,), ((e_half,), (w_half,), (e_full,), (f_u,), (f_ab,), (f_c,)),
+                ks, pw, ya, yb, yc, nl, e)
+    else:
+        rk4_row((P, u, fext, two_mass), s, h, 1, ks, pw, ya, e)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, s: np.ndarray, h: float,
+                         n_sub: int, ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray,
+                         nl: np.ndarray, e: np.ndarray, s0: np.ndarray) -> None:
+    """``n_sub`` substeps of a row whose friction sticks, with its mode changes located as events.
+
+    The mode ``s[6]`` is +-1 (sliding that way: friction ``sign * g(v)``) or 0 (stuck: the load at rest).  A
+    sliding substep whose load speed crosses zero is cut at the crossing (secant on the speed); there the load
+    sticks if the held force (:func:`_held_force`) is within the break-away level ``F_c + F_s``, else it slides
+    on the held force's way.  A stuck substep whose held force leaves that level is cut where it does (linear
+    in time) and the load breaks away.  Between events the friction law is smooth, so the steps keep their
+    order; no regularising speed or bristle spring sets the substeps."""
+    g0 = P[4] + P[5]
+    for _ in range(n_sub):
+        left = h
+        for _event in range(4):  # a mode change or two per substep; more would be a chatter of the load
+            if s[6] == 0.0 and s[1] != 0.0:
+                s[6] = 1.0 if s[1] > 0.0 else -1.0  # a start in motion slides
+            s0[:] = s
+            _one_step(P, u, fext, two_mass, dahl, s, left, ks, pw, ya, yb, yc, nl, e)
+            mode = s[6]
+            if mode != 0.0:
+                v0, v1 = mode * s0[1], mode * s[1]
+                if v1 >= 0.0:
+                    break
+                tau = left * v0 / (v0 - v1) if v0 > 0.0 else 0.0
+                s[:] = s0
+                if tau > 0.0:
+                    _one_step(P, u, fext, two_mass, dahl, s, tau, ks, pw, ya, yb, yc, nl, e)
+                s[1] = 0.0
+                if not two_mass:
+                    s[3] = 0.0
+                held = _held_force(P, s, u, fext, two_mass)
+                s[6] = 0.0 if abs(held) <= g0 else (1.0 if held > 0.0 else -1.0)
+            else:
+                a1 = _held_force(P, s, u, fext, two_mass)
+                if abs(a1) <= g0:
+                    break
+                a0 = _held_force(P, s0, u, fext, two_mass)
+                level = g0 if a1 > 0.0 else -g0
+                tau = min(max(left * (level - a0) / (a1 - a0), 0.0), left) if a1 != a0 else 0.0
+                s[:] = s0
+                if tau > 0.0:
+                    _one_step(P, u, fext, two_mass, dahl, s, tau, ks, pw, ya, yb, yc, nl, e)
+                s[6] = 1.0 if a1 > 0.0 else -1.0
+            left -= tau
+            if left <= 1e-9 * h:
+                break
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -348,6 +441,7 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
     pw = np.empty((4, 0))  # no power channels
     e_none = np.empty(0)
     tmp = np.empty(N_STATE)
+    s0 = np.empty(N_STATE)  # a substep's start, for a step cut at an event
     yb = np.empty(N_STATE)  # the exponential stepper's other stage states (tmp is its first)
     yc = np.empty(N_STATE)
     nl = np.empty((4, 1))
@@ -357,6 +451,7 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
         Pi = P[i]
         two_mass = Pi[9] > 0.0 or Pi[12] > 0.0
         dahl = Pi[14] > 0.0
+        sticks = Pi[19] > 0.0 and Pi[4] + Pi[5] > 0.0
         s = x0[i].copy()
         q1 = 0.0
         q2 = 0.0
@@ -380,7 +475,9 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
             y[k, i, 3] = _transmitted(Pi, s, uk, two_mass)
             y[k, i, 4] = uk
             fk = fext[k]
-            if dahl:
+            if sticks:
+                _stick_slip_substeps(Pi, uk, fk, two_mass, dahl, s, h, n_sub, ks, pw, tmp, yb, yc, nl, e_none, s0)
+            elif dahl:
                 _dahl_substeps(Pi, uk, fk, two_mass, s, h, n_sub, ks, pw, tmp, yb, yc, nl, e_none)
             else:
                 rk4_row((Pi, uk, fk, two_mass), s, h, n_sub, ks, pw, tmp, e_none)
@@ -408,10 +505,9 @@ def fastest_rate(P: np.ndarray) -> np.ndarray:
     frac = P[:, PIDX["frac_m"]]
     m_load = m * np.where((P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0), 1 - frac + 1e-9, 1.0)
     F_st = P[:, PIDX["F_c"]] + P[:, PIDX["F_s"]]
-    x_c = P[:, PIDX["x_c"]]
+    sticks = P[:, PIDX["sticks"]] > 0
     rates = [P[:, PIDX["b"]] / m,
-             np.where(x_c > 0, 3.0 * np.sqrt(F_st / np.maximum(x_c, 1e-300) / m_load),  # bristle: spring + damping
-                      F_st / (P[:, PIDX["v_eps"]] * m_load)),
+             np.where(sticks, 0.0, F_st / (P[:, PIDX["v_eps"]] * m_load)),  # friction that sticks: exact events
              np.where(P[:, PIDX["tau_e"]] > 0, 1.0 / np.maximum(P[:, PIDX["tau_e"]], 1e-12), 0.0),
              np.sqrt(2.0 * P[:, PIDX["sigma_h"]] / m_load) * (P[:, PIDX["F_h"]] > 0)]
     two = (P[:, PIDX["k_c"]] > 0) | (P[:, PIDX["backlash"]] > 0)
