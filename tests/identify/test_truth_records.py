@@ -149,16 +149,18 @@ def test_runner_up_branch_names_mesh_loss_and_viscous_friction_a_sensor_gain_sto
 
 
 def test_a_second_friction_term_is_also_fitted_with_the_first_creeping(tmp_path):
-    """Case 7054 (Stribeck + Coulomb friction, closed-loop sines): Coulomb friction goes in first with a stick
-    travel; the Stribeck excess was then fitted only beside a stuck friction (validation 7.4e-5), and a Dahl loop
-    replaced the Coulomb level (3.5e-5) where the true creeping pair replays at 3.5e-5.  The stick travel is one
+    """Case 7054 (Stribeck + Coulomb friction, closed-loop sines): Coulomb friction went in first sticking (then a
+    bristle of 1.5 um); the Stribeck excess was then fitted only beside a stuck friction (validation 7.4e-5), and a
+    Dahl loop replaced the Coulomb level (3.5e-5) where the true creeping pair replays at 3.5e-5.  Sticking is one
     switch of the friction, so the pair is also tried with both terms creeping: both are named, no loop."""
     res, truth = _identify(tmp_path, 7054, ("stribeck_friction", "coulomb_friction"))
     assert sorted(e["name"] for e in res["effects"]) == ["coulomb_friction", "stribeck_friction"], res["statements"]
     got = {e["name"]: e["parameters"] for e in res["effects"]}
     assert got["coulomb_friction"]["F_c"] == pytest.approx(truth["main"]["coulomb_friction"], rel=0.15)
     assert got["stribeck_friction"]["F_s"] == pytest.approx(truth["main"]["stribeck_friction"], rel=0.15)
-    assert got["coulomb_friction"]["sticks"] == 0.0 and got["stribeck_friction"]["sticks"] == 0.0
+    # one friction law, one switch: at most one of its terms carries it (the truth sticks; with exact sticking a
+    # stuck pair and a creeping one replay alike here, 3.46e-5 and 3.47e-5)
+    assert got["coulomb_friction"]["sticks"] + got["stribeck_friction"]["sticks"] <= 1.0
 
 
 def test_dahl_loop_started_on_a_grid_of_travels_is_named_not_coulomb_friction(tmp_path):
@@ -182,6 +184,15 @@ def test_backlash_beside_coulomb_friction_is_named_when_it_removes_most_of_what_
                                         ("coulomb_friction", "backlash", "transmission_compliance"))
     gap = next(c for c in res.candidates if c.name == "backlash" and c.accepted)
     assert 0.5 <= gap.share < 0.7
+
+
+def test_backlash_beside_friction_that_sticks_keeps_its_width(tmp_path):
+    """Case 37018 (a 48 um backlash behind a 63 Hz shaft, 12.3 N of Coulomb friction, closed-loop sines at 2 kHz,
+    motor encoder): with sticking approximated by a sub-count bristle, its give-way lag at every reversal left
+    errors of several counts, and a gap 35 % wide absorbed them.  Friction that sticks exactly (stick-slip
+    events) leaves the true gap, with the shaft as its contact, near the noise floor: both within 15 %."""
+    _pair_named_within_15_percent(tmp_path, 37018, ("backlash", "coulomb_friction"),
+                                  ("coulomb_friction", "backlash", "transmission_compliance"))
 
 
 def test_inertia_error_and_coulomb_friction_on_a_direct_drive_are_not_a_mesh_loss(tmp_path):

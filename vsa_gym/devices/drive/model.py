@@ -97,7 +97,7 @@ PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps
 PIDX = {n: i for i, n in enumerate(PNAMES)}
 #: observables of the roll-out, in column order
 OBS: tuple[str, ...] = ("position", "velocity", "motor_position", "force", "controller_output")
-N_STATE = 7  # x_l, v_l, x_m, v_m, F (lagged drive force), h (hysteresis), z (friction bristle)
+N_STATE = 7  # x_l, v_l, x_m, v_m, F (lagged drive force), h (hysteresis), friction mode (sticks: +-1, 0 stuck)
 F_CONTACT = 50.0  # Hz: default backlash contact mode on the reduced mass
 ZETA_CONTACT = 0.7  # damping ratio of the backlash contact
 E_CORNER = 0.05  # rounding of the dead-zone corners, as a share of the half gap g
@@ -220,7 +220,7 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     m, b, k_u, tau_e = P[0], P[1], P[2], P[3]
     F_c, F_s, v_s, v_eps, F_0 = P[4], P[5], P[6], P[7], P[8]
     frac, eta, F_h, sig = P[11], P[13], P[14], P[15]
-    xl, vl, xm, vm, F, h, z = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
+    xl, vl, xm, vm, F, h, mode = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
     b_emf = P[18] if tau_e > 0.0 else 0.0  # back-EMF through the winding's lag (voltage drive)
     if tau_e > 0.0:
         Fm = F
@@ -236,16 +236,15 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     g_v = F_c
     if F_s != 0.0:
         g_v += F_s * (np.exp(-(vl / v_s) ** 2) if d_s == 2.0 else np.exp(-abs(vl / v_s) ** d_s))
+    out[6] = 0.0
     stuck = False
     if P[19] > 0.0 and F_c + F_s > 0.0:
-        # friction that sticks (set-valued at rest): z is the mode, +-1 sliding that way, 0 stuck; the mode
-        # changes at events located by _stick_slip_substeps, so the law is exact between them
-        Ff = z * g_v + b * vl
-        stuck = z == 0.0
-        out[6] = 0.0
+        # friction that sticks (set-valued at rest): the mode is +-1 sliding that way, 0 stuck; it
+        # changes only at the events located by _stick_slip_substeps, so the law is exact between them
+        Ff = mode * g_v + b * vl
+        stuck = mode == 0.0
     else:
         Ff = g_v * np.tanh(vl / v_eps) + b * vl if g_v != 0.0 else b * vl
-        out[6] = 0.0
     if F_h > 0.0:
         out[5] = sig * (vl - abs(vl) * h / F_h)
     else:
