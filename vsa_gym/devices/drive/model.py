@@ -330,6 +330,17 @@ def _one_step(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, 
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _dahl_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, s: np.ndarray, h: float, n_sub: int,
+                   ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray, nl: np.ndarray,
+                   e: np.ndarray) -> None:
+    """``n_sub`` exponential RK4 substeps of a row with a Dahl force, its decay rate ``sigma_h |v_l| / F_h`` (the
+    rhs of ``h`` is ``sigma_h v_l - rate h``) taken at each substep's start.  A call of its own, not inlined, so the row
+    loop of the other rows (classical RK4) compiles as it did before."""
+    for _ in range(n_sub):
+        _one_step(P, u, fext, two_mass, True, s, h, ks, pw, ya, yb, yc, nl, e)
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, s: np.ndarray, h: float,
                          n_sub: int, ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray,
                          nl: np.ndarray, e: np.ndarray, s0: np.ndarray) -> None:
@@ -377,20 +388,6 @@ def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, d
             left -= tau
             if left <= 1e-9 * h:
                 break
-
-
-@numba.njit(cache=True, error_model="numpy")
-def _dahl_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, s: np.ndarray, h: float, n_sub: int,
-                   ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray, nl: np.ndarray,
-                   e: np.ndarray) -> None:
-    """``n_sub`` exponential RK4 substeps of a row with a Dahl force, its decay rate ``sigma_h |v_l| / F_h`` (the
-    rhs of ``h`` is ``sigma_h v_l - rate h``) taken at each substep's start.  A call of its own, not inlined, so the row
-    loop of the other rows (classical RK4) compiles as it did before."""
-    for _ in range(n_sub):
-        lam = P[15] * abs(s[1]) / P[14]
-        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights_scalar(lam, h)
-        etd_row((P, u, fext, two_mass), s, h, 1, (lam,), ((e_half,), (w_half,), (e_full,), (f_u,), (f_ab,), (f_c,)),
-                ks, pw, ya, yb, yc, nl, e)
 
 
 @numba.njit(cache=True, error_model="numpy")
