@@ -195,15 +195,6 @@ def test_backlash_beside_friction_that_sticks_keeps_its_width(tmp_path):
                                   ("coulomb_friction", "backlash", "transmission_compliance"))
 
 
-def test_a_slow_mode_behind_a_light_rotor_is_within_the_compliance_range(tmp_path):
-    """Case 53015 (a 4.1 Hz shaft behind a rotor with 17 % of the inertia, and a 5.7 ms sensor delay; open-loop
-    steps at 1 kHz): the compliance's range ended at a 4 Hz mode on m / 4, below this mode's compliance on the
-    true reduced mass, so its fit stopped at the bound and nothing was named.  On the sidecar's reduced mass,
-    down to 2 Hz, both effects are named within 15 %."""
-    _pair_named_within_15_percent(tmp_path, 53015, ("transmission_compliance", "sensor_delay"),
-                                  ("transmission_compliance", "sensor_delay", "backlash", "inertia_error"))
-
-
 def test_inertia_error_and_coulomb_friction_on_a_direct_drive_are_not_a_mesh_loss(tmp_path):
     """Case 13051 of the fresh seed-13 set (a linear motor, closed-loop multisine at 1 kHz, with the moving mass
     34 % heavier than its sidecar says and Coulomb friction): with the transmission's effects as candidates, a
