@@ -50,10 +50,8 @@ STICK = Param("sticks", "-", 1.0, 1.0, 0.0, 1.0, main=False, check_bound=False, 
 
 
 def _k_typ(a: Any) -> float:
-    """A typical transmission stiffness: a mode at 20 Hz on the reduced mass ``frac_m (1 - frac_m) m`` (the
-    sidecar's split; m / 4 where it gives none)."""
-    frac = float(a.params.frac_m)
-    return 4 * np.pi**2 * 400.0 * frac * (1.0 - frac) * float(a.params.m)
+    """A typical transmission stiffness: a mode at 20 Hz on the reduced mass."""
+    return 4 * np.pi**2 * 400.0 * float(a.params.m) / 4
 
 
 def _f_max(a: Any) -> float:
@@ -130,10 +128,7 @@ LIBRARY: tuple[Effect, ...] = (
            when=lambda a: _geared(a) and "backlash" not in a.free,
            synthetic={SYNTHETIC: {"width": (2e-3, 5e-3)}}, source=SOURCE),
     Effect("transmission_compliance", IN_TRANSMISSION, (
-        # up to a mode of 2 Hz on the reduced mass (a belt or a spring rather than a shaft); the range ended at
-        # 4 Hz on m / 4 before, which a rotor's small share of m leaves above a 4 Hz mode's compliance (truth
-        # case 53015: frac_m 0.17, a 4.1 Hz mode 1.7x that bound; the fit was refused at it, nothing named)
-        Param("compliance", lambda a: f"{a.units[0]}/{a.units[1]}", 0.0, lambda a: 100.0 / _k_typ(a), 0.0,
+        Param("compliance", lambda a: f"{a.units[0]}/{a.units[1]}", 0.0, lambda a: 1.0 / (_k_typ(a) / 25), 0.0,
               lambda a: 1.0 / _k_typ(a)),
         # the mode's damping ratio on the reduced mass: held at 0.05 unless freeing it validates better (a
         # shaft rings at 0.02-0.1; held too high or too low, the missing damping is named viscous friction)
