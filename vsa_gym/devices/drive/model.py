@@ -355,11 +355,21 @@ def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, d
     g0 = P[4] + P[5]
     for _ in range(n_sub):
         left = h
-        for _event in range(4):  # a mode change or two per substep; more would be a chatter of the load
+        events = 0
+        while left > 1e-9 * h:
             if s[6] == 0.0 and s[1] != 0.0:
                 s[6] = 1.0 if s[1] > 0.0 else -1.0  # a start in motion slides
             s0[:] = s
             _one_step(P, u, fext, two_mass, dahl, s, left, ks, pw, ya, yb, yc, nl, e)
+            if events == 3:
+                # a fourth mode change in one substep would be the load chattering: the step stands (the substep
+                # is always completed), and a load it leaves moving against its mode is stopped there
+                if s[6] != 0.0 and s[6] * s[1] < 0.0:
+                    s[1] = 0.0
+                    if not two_mass:
+                        s[3] = 0.0
+                    s[6] = 0.0
+                break
             mode = s[6]
             if mode != 0.0:
                 v0, v1 = mode * s0[1], mode * s[1]
@@ -385,9 +395,8 @@ def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, d
                 if tau > 0.0:
                     _one_step(P, u, fext, two_mass, dahl, s, tau, ks, pw, ya, yb, yc, nl, e)
                 s[6] = 1.0 if a1 > 0.0 else -1.0
+            events += 1
             left -= tau
-            if left <= 1e-9 * h:
-                break
 
 
 @numba.njit(cache=True, error_model="numpy")
