@@ -112,3 +112,17 @@ def test_direct_drive_declaration_is_checked_and_drops_the_transmission_effects(
     path.with_suffix(".json").write_text(json.dumps(meta))
     with pytest.raises(ValueError, match="'direct' but model.params gives transmission parameters backlash = 0.0001"):
         make_adapter(load_record(path))
+
+
+def test_an_unknown_drive_parameter_is_named_with_the_fields(tmp_path, capsys):
+    """A sidecar's ``model.params`` key the drive does not have (here ``x_c``, the stick travel that became the
+    switch ``sticks``) is named, with the rename, and identification writes nothing."""
+    path, _, meta = _good(tmp_path)
+    meta = json.loads(json.dumps(meta))
+    meta["model"]["params"]["x_c"] = 1e-7
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    out = tmp_path / "out.json"
+    assert main(["identify", str(path), "--json", str(out)]) != 0
+    err = capsys.readouterr().err
+    assert "unknown drive parameter(s) 'x_c'" in err and "sticks" in err
+    assert not out.exists()
