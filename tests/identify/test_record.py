@@ -116,7 +116,7 @@ def test_direct_drive_declaration_is_checked_and_drops_the_transmission_effects(
 
 def test_an_unknown_drive_parameter_is_named_with_the_fields(tmp_path, capsys):
     """A sidecar's ``model.params`` key the drive does not have (here ``x_c``, the stick travel that became the
-    switch ``sticks``) is named, with the rename, and identification writes nothing."""
+    switch ``sticks``) is named, with the rename, by identify (which writes nothing) and by the checker."""
     path, _, meta = _good(tmp_path)
     meta = json.loads(json.dumps(meta))
     meta["model"]["params"]["x_c"] = 1e-7
@@ -124,5 +124,7 @@ def test_an_unknown_drive_parameter_is_named_with_the_fields(tmp_path, capsys):
     out = tmp_path / "out.json"
     assert main(["identify", str(path), "--json", str(out)]) != 0
     err = capsys.readouterr().err
-    assert "unknown drive parameter(s) 'x_c'" in err and "sticks" in err
+    assert "unknown parameter(s) 'x_c' (x_c: now sticks" in err
     assert not out.exists()
+    assert check_record(path) == [next(p for p in check_record(path) if "'x_c'" in p)]  # data check names it too
+    assert main(["data", "check", str(path)]) == 1

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from typing import Any
 
 
@@ -21,13 +21,28 @@ class RecordSchema:
     """The quantities a measured record of the device may declare (``vsa-gym data check``).
 
     ``inputs`` / ``outputs``: quantity -> allowed units.  ``needs``: the record must declare at least one of these
-    input quantities (empty: no rule); ``needs_message`` says so when it does not.
+    input quantities (empty: no rule); ``needs_message`` says so when it does not.  ``params``: a reference to the
+    names ``model.params`` may give (empty: not checked); ``renamed``: an old name -> what replaced it.
     """
 
     inputs: Mapping[str, tuple[str, ...]]
     outputs: Mapping[str, tuple[str, ...]]
     needs: frozenset[str] = frozenset()
     needs_message: str = ""
+    params: str = ""
+    renamed: Mapping[str, str] = dataclasses.field(default_factory=dict)
+
+    def params_problem(self, given: Collection[str]) -> str | None:
+        """The problem with the names a sidecar's ``model.params`` gives, or ``None``."""
+        if not self.params:
+            return None
+        names = tuple(load_ref(self.params))
+        unknown = sorted(set(given) - set(names))
+        if not unknown:
+            return None
+        hints = "".join(f" ({k}: now {self.renamed[k]})" for k in unknown if k in self.renamed)
+        return (f"model.params: unknown parameter(s) {', '.join(map(repr, unknown))}{hints}; the fields are "
+                f"{', '.join(names)}")
 
     def input_problem(self, declared: set[str]) -> str | None:
         """The problem with the declared input quantities, or ``None`` (no inputs declared: nothing to say here)."""

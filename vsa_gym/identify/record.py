@@ -212,6 +212,11 @@ def check_record(path: str | Path, table: pd.DataFrame | None = None,
         problems.append(f"model.transmission: {model['transmission']!r} is not {' or '.join(map(repr, TRANSMISSIONS))}"
                         if device == "drive" else f"model.transmission is a drive field; device {device!r} has none")
 
+    params = model.get("params", {}) if isinstance(model, Mapping) else {}
+    problem = device_spec(device).record.params_problem(params if isinstance(params, Mapping) else {})
+    if problem:
+        problems.append(problem)
+
     # time
     tspec = meta.get("time", {"column": "t", "unit": "s"})
     tcol = tspec.get("column", "t")

@@ -23,6 +23,8 @@ DEVICE = DeviceSpec(
         },
         needs=frozenset({"voltage", "current", "force", "reference"}),
         needs_message="drive record needs a drive input: voltage, current, force or a closed-loop reference",
+        params="vsa_gym.devices.drive.model:PNAMES",
+        renamed={"x_c": "sticks, 1 for friction that sticks, 0 for one that creeps (x_c was a stick travel)"},
     ),
     adapter="vsa_gym.devices.drive.adapter:DriveAdapter",
     effects="vsa_gym.devices.drive.effects:LIBRARY",

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from vsa_gym.devices import device
 from vsa_gym.devices.drive import model as drive
 from vsa_gym.devices.drive.effects import LIBRARY as DRIVE_LIBRARY
 from vsa_gym.devices.drive.effects import ZETA_COMPLIANCE
@@ -52,11 +53,9 @@ class DriveAdapter(Adapter):
     def __init__(self, record: Record, replay: str | None = None) -> None:
         super().__init__(record)
         model = record.model
-        unknown = sorted(set(model.get("params", {})) - set(drive.PNAMES))
-        if unknown:
-            hint = " (x_c, a stick travel, is now the switch sticks: 1 sticks, 0 creeps)" if "x_c" in unknown else ""
-            raise ValueError(f"model.params: unknown drive parameter(s) {', '.join(map(repr, unknown))}{hint}; "
-                             f"the fields are {', '.join(drive.PNAMES)}")
+        problem = device("drive").record.params_problem(model.get("params", {}))  # a record not built by load_record
+        if problem:
+            raise ValueError(problem)
         self.params = drive.DriveParams(**model.get("params", {}))
         self.rot = model.get("motion", "translational") == "rotational"
         transmission = model.get("transmission", "geared")
