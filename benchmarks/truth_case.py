@@ -7,7 +7,7 @@ replay prints the fit-part and validation NRMSE of the nominal model and of the 
 given by ``--at`` (identification keys, e.g. ``backlash.width=0.0078``, ``stribeck_friction.sticks=1``);
 ``--identify`` then runs ``vsa-gym identify`` on the record as a user would (its JSON holds the noise floor,
 ``noise_floor_nrmse``).  This is how the single-case figures in docs/identification.md are made (e.g.
-case 11006: the true Stribeck friction with and without a stick travel).
+case 11006: the true Stribeck friction creeping and sticking).
 """
 
 from __future__ import annotations

@@ -301,7 +301,7 @@ def _held_force(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: b
     rest = P[8] + s[5] - fext  # F_0 + h - F_ext
     if two_mass:
         return _tforce(P, s[2] - s[0], s[3] - s[1]) - rest - P[1] * s[1]
-    Fm = s[4] if P[3] > 0.0 else P[2] * u
+    Fm = s[4] if P[3] > 0.0 else P[2] * u  # the motor force (as _transmitted gives it; inlined here)
     eta = P[13]
     eta_b = P[17] if P[17] > 0.0 else eta
     if eta >= 1.0 and eta_b >= 1.0:
@@ -371,29 +371,29 @@ def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, d
                     s[6] = 0.0
                 break
             mode = s[6]
-            if mode != 0.0:
+            a1 = 0.0
+            if mode != 0.0:  # sliding: did the load speed cross zero?
                 v0, v1 = mode * s0[1], mode * s[1]
                 if v1 >= 0.0:
                     break
                 tau = left * v0 / (v0 - v1) if v0 > 0.0 else 0.0
-                s[:] = s0
-                if tau > 0.0:
-                    _one_step(P, u, fext, two_mass, dahl, s, tau, ks, pw, ya, yb, yc, nl, e)
-                s[1] = 0.0
-                if not two_mass:
-                    s[3] = 0.0
-                held = _held_force(P, s, u, fext, two_mass)
-                s[6] = 0.0 if abs(held) <= g0 else (1.0 if held > 0.0 else -1.0)
-            else:
+            else:  # stuck: did the held force leave the break-away level?
                 a1 = _held_force(P, s, u, fext, two_mass)
                 if abs(a1) <= g0:
                     break
                 a0 = _held_force(P, s0, u, fext, two_mass)
                 level = g0 if a1 > 0.0 else -g0
                 tau = min(max(left * (level - a0) / (a1 - a0), 0.0), left) if a1 != a0 else 0.0
-                s[:] = s0
-                if tau > 0.0:
-                    _one_step(P, u, fext, two_mass, dahl, s, tau, ks, pw, ya, yb, yc, nl, e)
+            s[:] = s0  # the substep cut at the event
+            if tau > 0.0:
+                _one_step(P, u, fext, two_mass, dahl, s, tau, ks, pw, ya, yb, yc, nl, e)
+            if mode != 0.0:  # the load stops: it sticks, or slides on the held force's way
+                s[1] = 0.0
+                if not two_mass:
+                    s[3] = 0.0
+                held = _held_force(P, s, u, fext, two_mass)
+                s[6] = 0.0 if abs(held) <= g0 else (1.0 if held > 0.0 else -1.0)
+            else:  # it breaks away
                 s[6] = 1.0 if a1 > 0.0 else -1.0
             events += 1
             left -= tau
