@@ -106,3 +106,30 @@ def test_a_split_start_gives_the_new_force_a_share_of_the_accepted_one(coulomb_c
     x_h = ad.effects["hysteresis"].params[1]
     assert x_h.lower <= start["hysteresis.x_h"] <= x_h.upper
     assert starts.split_start(ad, held, ad.effects["backlash"], masks["fit"]) == {}
+
+
+def test_a_new_effect_is_also_tried_with_an_accepted_friction_sticking(coulomb_case):
+    """An accepted friction that creeps (its switch off, its build-up speed v_t freed) was chosen before the new
+    effect was there: beside a gap the new effect is also fitted with the friction sticking, v_t left out of the
+    equations (truth case 59050)."""
+    ad, masks, held = coulomb_case
+    spec = ad.effects["coulomb_friction"]
+    v_t = spec.params[spec.keys.index("coulomb_friction.v_t")]
+    creeping = fit_model(ad, {}, held.keys + ["coulomb_friction.v_t"], held.specs + [v_t],
+                         {**held.theta(), "coulomb_friction.v_t": v_t.typical}, masks, held.effects, 3)
+    gap = ad.effects["backlash"]
+    width = gap.params[0]
+    with_gap = fit_model(ad, {}, creeping.keys + ["backlash.width"], creeping.specs + [width],
+                         {**creeping.theta(), "backlash.width": width.typical}, masks,
+                         (*creeping.effects, "backlash"), 3)
+    variants = starts.shape_variants(ad, creeping, with_gap, gap, masks["fit"])
+    assert variants[0][0] is creeping
+    flipped = [base for base, _ in variants if "coulomb_friction.sticks" in base.keys]
+    assert len(flipped) == 1
+    base = flipped[0]
+    assert "coulomb_friction.v_t" not in base.keys
+    assert set(base.keys) == set(creeping.keys) - {"coulomb_friction.v_t"} | {"coulomb_friction.sticks"}
+    assert base.param("coulomb_friction.sticks") == (1.0, 1.0, 1.0)
+    assert base.theta()["coulomb_friction.F_c"] == creeping.theta()["coulomb_friction.F_c"]
+    # a friction that already sticks is not flipped again
+    assert [b for b, _ in starts.shape_variants(ad, base, with_gap, gap, masks["fit"])] == [base]

@@ -196,6 +196,17 @@ def with_values(fm: FittedModel, values: Mapping[str, float]) -> FittedModel:
                                                                                       strict=True)]))
 
 
+def with_switch_on(fm: FittedModel, spec: EffectSpec, switch: ParamSpec) -> FittedModel:
+    """``fm`` with the switch ``switch`` of its effect ``spec`` turned on (its key added at its pinned value) and
+    the shapes that the switch leaves out of the equations (``dead_with``) taken out (not refitted; scores are
+    ``fm``'s)."""
+    key = f"{spec.name}.{switch.name}"
+    reduced = without_keys(fm, [k for k, p in zip(spec.keys, spec.params, strict=True) if p.dead_with == switch.name])
+    return dataclasses.replace(reduced, keys=[*reduced.keys, key], specs=[*reduced.specs, switch],
+                               values=np.append(reduced.values, switch.lower),
+                               ci=np.vstack([reduced.ci.reshape(-1, 2), [[switch.lower, switch.lower]]]))
+
+
 def without_effect(fm: FittedModel, name: str) -> FittedModel:
     """``fm`` with effect ``name`` and its parameters taken out (not refitted; scores are ``fm``'s)."""
     reduced = without_keys(fm, [k for k in fm.keys if k.startswith(f"{name}.")])
@@ -220,4 +231,4 @@ def lstsq_sse(A: np.ndarray, r: np.ndarray) -> float:
     return float(np.dot(e, e))
 
 __all__ = ["SimulationErrorProblem", "compared", "effect_evidence", "fit_model", "lstsq_sse", "part_end",
-           "part_nrmse", "validation_blind", "with_values", "without_effect"]
+           "part_nrmse", "validation_blind", "with_switch_on", "with_values", "without_effect", "without_keys"]
