@@ -267,3 +267,27 @@ def test_backlash_of_a_voltage_drive_is_fitted_with_the_damping_on_the_motor(tmp
     ad = make_adapter(load_record(next(tmp_path.glob("*.csv"))))  # the record the helper wrote
     assert ad.restarts("backlash", {"base.emf_share": 0.0}) == {"base.emf_share": 1.0}
     assert ad.restarts("coulomb_friction", {"base.emf_share": 0.0}) == {}
+
+
+def test_look_alikes_ambiguous_alone_are_separated_once_a_later_effect_is_in(tmp_path):
+    """Case 61003 of the seed-61 set (a linear motor, open-loop steps at 2 kHz; the moving mass 19 % lighter than
+    its sidecar says, 1.55 N of Coulomb friction): in round one a Dahl loop and Coulomb friction validate alike
+    (0.1514 vs 0.1524) and were reported ambiguous.  Beside the inertia error the swap replaces the loop by the
+    friction at 6.6e-05 against 0.090: the record has told them apart, so the ambiguity is dropped and both
+    planted effects are named within 15 % (before, only the inertia error was asserted)."""
+    res = _pair_named_within_15_percent(tmp_path, 61003, ("inertia_error", "coulomb_friction"),
+                                        ("inertia_error", "coulomb_friction", "hysteresis"))
+    assert not res.ambiguous
+    swap = next(c for c in res.candidates if c.reason.startswith("replaces hysteresis"))
+    assert "separates hysteresis and coulomb_friction" in swap.reason
+
+
+def test_viscous_friction_is_also_fitted_with_the_accepted_friction_sticking(tmp_path):
+    """Case 43017 of the seed-43 pairs set (a linear motor, closed-loop moves at 2 kHz, load encoder; 2.47 N of
+    Coulomb friction and 29 N s/m of viscous friction): alone, the friction that creeps (v_t freed) validated
+    best, and beside it the viscous friction removed 45 % of what was left (needs 50 %); the Coulomb friction was
+    named alone, 41 % off.  An effect without shapes is now also fitted with the accepted friction sticking
+    (:func:`vsa_gym.identify.starts.switch_flips`), and both are named within 15 %, the friction sticking."""
+    res = _pair_named_within_15_percent(tmp_path, 43017, ("coulomb_friction", "viscous_friction"),
+                                        ("coulomb_friction", "viscous_friction", "hysteresis"))
+    assert res.final.theta()["coulomb_friction.sticks"] == 1.0
