@@ -294,9 +294,7 @@ class Identifier:
         separated them (truth case 61003: hysteresis and Coulomb friction 0.1514 vs 0.1524 alone; beside the
         inertia error, Coulomb friction 6.6e-05 against hysteresis 0.090)."""
         gone, came = set(before.effects) - set(after.effects), set(after.effects) - set(before.effects)
-        if not gone or not came:
-            return ambiguous
-        s_after, s_before, _ = compared(after, before, floor)
+        s_after, s_before, _ = compared(after, before, floor) if gone and came else (1.0, 1.0, "")
         if not s_after * (1 + self.ambiguity) < s_before:
             return ambiguous
         kept = [a for a in ambiguous if not (gone & set(a.between) and came & set(a.between))]
@@ -412,8 +410,8 @@ class Identifier:
                 if alt.sse_fit < fm.sse_fit:
                     fm = alt
         # an effect without shapes is still fitted with an accepted friction sticking (switch_flips)
-        variants = (switch_flips if len(held) == len(spec.keys) else shape_variants)(ad, current, fm, spec,
-                                                                                    masks["fit"])
+        vary = switch_flips if len(held) == len(spec.keys) else shape_variants
+        variants = vary(ad, current, fm, spec, masks["fit"])
         # the optional shape parameters are freed only where that validates better by the margin; the free fit
         # starts from the best point of a grid over the shapes (a friction that builds up over a wide speed range
         # or a contact that rings fits only near its own shape, far from the held default)
