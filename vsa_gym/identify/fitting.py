@@ -128,11 +128,9 @@ def fit_model(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list
     p = prob.to_p(x)
     sse = float(np.dot(r, r))
     N = r.size
-    # effective sample size from the lag-1 autocorrelation of the residual
-    rho = float(np.clip(acf(r, 1)[0], 0.0, 0.999)) if N > 2 else 0.0
-    infl = (1 + rho) / (1 - rho)
+    rho, infl = _correlation(r)
     ci = np.zeros((len(keys), 2))
-    at_bound = [k for k, xi, a, b in zip(keys, x, lo, hi, strict=True) if min(xi - a, b - xi) < 1e-3 * (b - a)]
+    at_bound = [k for k, near in zip(keys, _near_bound(x, lo, hi), strict=True) if near]
     if keys:
         # a parameter held at a bound is an active constraint, not a free direction: the covariance is that
         # of the free parameters (a shape exponent at its limit does not widen the main parameter's CI); a
@@ -159,6 +157,18 @@ def fit_model(ad: Adapter, fixed: dict[str, float], keys: list[str], specs: list
                        rho, part_nrmse(ad.measured, y, masks["fit"]), y[val] / sd_val)
 
 
+def _correlation(r: np.ndarray) -> tuple[float, float]:
+    """Lag-1 autocorrelation of a residual (clipped to 0..0.999) and the variance inflation ``(1 + rho) / (1 -
+    rho)`` it implies (the effective sample size of correlated residuals)."""
+    rho = float(np.clip(acf(r, 1)[0], 0.0, 0.999)) if r.size > 2 else 0.0
+    return rho, (1 + rho) / (1 - rho)
+
+
+def _near_bound(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Which parameters (problem units) lie within 1e-3 of their range from a bound."""
+    return np.minimum(x - lo, hi - x) < 1e-3 * (hi - lo)
+
+
 def _release_loose(prob: SimulationErrorProblem, x: np.ndarray, r: np.ndarray, J: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """Move the bound-checked shape parameters (``check_bound``, not ``main``) that a fit left at a bound but
@@ -171,18 +181,14 @@ def _release_loose(prob: SimulationErrorProblem, x: np.ndarray, r: np.ndarray, J
     any start replays the same).  Held at its default, such a shape raises the fit-part cost by less than one
     parameter's 95 % threshold (chi-square 3.84 times the residual variance, inflated for correlated
     residuals as the CIs are); it is moved there, and its CI is its whole range."""
-    lo, hi = prob.bounds()
-    idx = [i for i, (s, xi, a, b) in enumerate(zip(prob.specs, x, lo, hi, strict=True))
-           if s.check_bound and not s.main and min(xi - a, b - xi) < 1e-3 * (b - a)
-           and s.lower <= s.absent <= s.upper and xi != 0.0]  # x = 0 is the default, ``absent``
+    idx = [i for i, (s, xi, near) in enumerate(zip(prob.specs, x, _near_bound(x, *prob.bounds()), strict=True))
+           if near and s.check_bound and not s.main and s.lower <= s.absent <= s.upper and xi != 0.0]
     if not idx:
         return x, r, J, []
-    sse, N = float(np.dot(r, r)), r.size
-    rho = float(np.clip(acf(r, 1)[0], 0.0, 0.999)) if N > 2 else 0.0
-    limit = 3.84 * sse / max(N - len(x), 1) * (1 + rho) / (1 - rho)
+    sse = float(np.dot(r, r))
+    limit = 3.84 * sse / max(r.size - len(x), 1) * _correlation(r)[1]
     X = np.repeat(x[None, :], len(idx), axis=0)
-    for row, i in enumerate(idx):
-        X[row, i] = 0.0  # the default (``absent``) in the problem's units
+    X[np.arange(len(idx)), idx] = 0.0  # x = 0 is the default (``absent``) in the problem's units
     with np.errstate(over="ignore"):
         cost = np.sum(prob.batch(X) ** 2, axis=1)
     moved = [i for row, i in enumerate(idx) if np.isfinite(cost[row]) and cost[row] - sse < limit]

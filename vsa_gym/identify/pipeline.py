@@ -54,6 +54,7 @@ from vsa_gym.identify.selection import (
     excess_share,
     lookalikes,
     noise_floor,
+    separated_by_swap,
     separating_experiment,
     shares_force,
 )
@@ -293,12 +294,14 @@ class Identifier:
         and where the model with the other validates better by more than :attr:`ambiguity` the record has
         separated them (truth case 61003: hysteresis and Coulomb friction 0.1514 vs 0.1524 alone; beside the
         inertia error, Coulomb friction 6.6e-05 against hysteresis 0.090)."""
-        gone, came = set(before.effects) - set(after.effects), set(after.effects) - set(before.effects)
-        s_after, s_before, _ = compared(after, before, floor) if gone and came else (1.0, 1.0, "")
+        kept, hit = separated_by_swap(ambiguous, set(before.effects) - set(after.effects),
+                                      set(after.effects) - set(before.effects))
+        if not hit:
+            return ambiguous
+        s_after, s_before, _ = compared(after, before, floor)
         if not s_after * (1 + self.ambiguity) < s_before:
             return ambiguous
-        kept = [a for a in ambiguous if not (gone & set(a.between) and came & set(a.between))]
-        for a in (a for a in ambiguous if a not in kept):  # the swap's own candidate is the last one
+        for a in hit:  # the swap's own candidate is the last one
             cands[-1].reason += f"; this separates {' and '.join(a.between)} (ambiguous in round {a.round})"
         return kept
 

@@ -154,5 +154,14 @@ class Ambiguity:
         return dataclasses.asdict(self)
 
 
+def separated_by_swap(ambiguous: list[Ambiguity], gone: set[str], came: set[str]
+                      ) -> tuple[list[Ambiguity], list[Ambiguity]]:
+    """``(kept, separated)``: the ambiguities a swap that took out ``gone`` and put in ``came`` separates (it
+    replaced one of their look-alikes by another) and the others.  The caller decides whether the swap's
+    gain was decisive."""
+    hit = [a for a in ambiguous if gone & set(a.between) and came & set(a.between)]
+    return [a for a in ambiguous if a not in hit], hit
+
+
 __all__ = ["LOOKALIKE_GROUPS", "SEPARATING", "Ambiguity", "excess_share", "lookalikes", "noise_floor",
-           "separating_experiment", "shares_force"]
+           "separated_by_swap", "separating_experiment", "shares_force"]
