@@ -40,6 +40,10 @@ LOOKALIKE_GROUPS: tuple[tuple[str, ...], ...] = (
     ("coulomb_friction", "force_offset"),
     ("coulomb_friction", "viscous_friction"),
     ("inertia_error", "sensor_gain"),
+    # a closed loop that reads a position sensor with a gain error settles where the scaled reading meets the
+    # reference, and its loop gains are scaled too: that bends the replay as a loss or a damping on the drive does
+    ("sensor_gain", "gearbox_efficiency"),
+    ("sensor_gain", "viscous_friction"),
 )
 
 #: the experiment that separates two look-alikes
@@ -79,6 +83,12 @@ SEPARATING: dict[frozenset[str], str] = {
     frozenset({"coulomb_friction", "viscous_friction"}):
         "constant-speed runs at several speeds: viscous friction grows in proportion to the speed, Coulomb "
         "friction is flat once built up",
+    frozenset({"sensor_gain", "gearbox_efficiency"}):
+        "a move over a distance measured independently (a gauge block, a second sensor): a gain error scales the "
+        "reading, a loss only the force it takes",
+    frozenset({"sensor_gain", "viscous_friction"}):
+        "moves of one measured distance at several speeds: viscous friction grows with the speed, a gain error "
+        "scales the reading at every speed",
     frozenset({"inertia_error", "sensor_gain"}):
         "a measured force or a second position sensor: an inertia error changes the force-acceleration ratio, "
         "a sensor gain only the reading",
