@@ -61,7 +61,9 @@ REWARD_KWARGS: dict[str, frozenset[str]] = {
     "vsa_gym/VsaUT2-PositionStiffness-v0": frozenset({"w_position", "w_stiffness", "w_energy", "position_scale",
                                                       "log_stiffness_scale", "failure_penalty", "failure_rate",
                                                       "episode_steps", "regen"}),
-    "vsa_gym/VsaUT2-Throw-v0": frozenset({"failure_penalty"}),
+    # the throw's progress shaping (potential-based: the policy's optimum and the score are unchanged) is a
+    # training aid: scored without it, the return is the release speed less the failure charge
+    "vsa_gym/VsaUT2-Throw-v0": frozenset({"failure_penalty", "shaping", "shaping_gamma"}),
 }
 """Environment arguments that change only the reward (and ``energy_charged``, the energy term's basis),
 never the dynamics, observations or episode ends; ``tests/agents/test_evaluate_reward.py`` checks this

@@ -18,7 +18,8 @@ from vsa_gym.envs import ENV_IDS
 OTHER: dict[str, Any] = {"w_force": 3.0, "w_energy": 0.05, "force_scale": 250.0, "failure_penalty": 7.0,
                          "regen": "count", "w_comfort": 3.0, "w_travel": 3.0, "w_tyre": 3.0, "accel_scale": 0.5,
                          "travel_soft": 0.5, "w_position": 3.0, "w_stiffness": 3.0, "position_scale": 0.1,
-                         "log_stiffness_scale": 0.5, "failure_rate": 50.0, "episode_steps": 1000}
+                         "log_stiffness_scale": 0.5, "failure_rate": 50.0, "episode_steps": 1000, "shaping": 1.0,
+                         "shaping_gamma": 0.9}
 QC = "vsa_gym/ELPAS-QuarterCar-v0"
 
 
@@ -55,7 +56,7 @@ def test_reward_only_arguments_change_the_reward_and_nothing_else(env_id: str) -
     for key in ref:
         if key != "reward":
             np.testing.assert_array_equal(changed[key], ref[key], err_msg=f"{env_id}: {key} changed")
-    if any(k.startswith("w_") for k in REWARD_KWARGS[env_id]):
+    if any(k.startswith("w_") or k == "shaping" for k in REWARD_KWARGS[env_id]):
         assert not np.array_equal(changed["reward"], ref["reward"])  # the arguments are live, not misspelt
     for k in REWARD_KWARGS[env_id]:  # each name is an argument of the environment (a misspelt one raises)
         gym.make_vec(env_id, num_envs=1, **{k: OTHER[k]}).close()
