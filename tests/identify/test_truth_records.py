@@ -303,3 +303,15 @@ def test_sensor_gain_chosen_first_is_swapped_for_the_mesh_loss_beside_viscous_fr
                                         ("sensor_gain", "viscous_friction", "gearbox_efficiency"))
     swap = next(c for c in res.candidates if c.reason.startswith("replaces sensor_gain"))
     assert swap.name == "gearbox_efficiency" and swap.accepted
+
+
+def test_inertia_error_chosen_first_is_swapped_for_the_transmission_compliance(tmp_path):
+    """Case 79007 of the seed-79 pairs set (a gear motor in closed loop, sines at 1 kHz, motor encoder; a shaft
+    mode at 10.5 Hz and a 3.9 ms sensor delay): the inertia error validated best in round one (0.0262 against the
+    compliance's 0.0280) and the delay was named beside it, 23 % short.  Above its mode a compliant shaft leaves
+    the motor its own inertia, so a compliance is now a look-alike of an inertia error, and the swap after round
+    two puts it in place of the inertia error: 1.1e-4 against 0.0073, both named within 0.1 %."""
+    res = _pair_named_within_15_percent(tmp_path, 79007, ("transmission_compliance", "sensor_delay"),
+                                        ("inertia_error", "transmission_compliance", "sensor_delay", "sensor_gain"))
+    swap = next(c for c in res.candidates if c.reason.startswith("replaces inertia_error"))
+    assert swap.name == "transmission_compliance" and swap.accepted

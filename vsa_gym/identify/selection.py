@@ -40,6 +40,9 @@ LOOKALIKE_GROUPS: tuple[tuple[str, ...], ...] = (
     ("coulomb_friction", "force_offset"),
     ("coulomb_friction", "viscous_friction"),
     ("inertia_error", "sensor_gain"),
+    # above a transmission mode the motor moves its own inertia only: a compliance changes the inertia a drive
+    # appears to move, as an inertia error does at every frequency
+    ("inertia_error", "transmission_compliance"),
     # a closed loop that reads a position sensor with a gain error settles where the scaled reading meets the
     # reference, and its loop gains are scaled too: that bends the replay as a loss or a damping on the drive does
     ("sensor_gain", "gearbox_efficiency"),
@@ -89,6 +92,9 @@ SEPARATING: dict[frozenset[str], str] = {
     frozenset({"sensor_gain", "viscous_friction"}):
         "moves of one measured distance at several speeds: viscous friction grows with the speed, a gain error "
         "scales the reading at every speed",
+    frozenset({"inertia_error", "transmission_compliance"}):
+        "a frequency sweep through the transmission mode: a compliance shows a resonance and, above it, the motor's "
+        "inertia alone; an inertia error scales the response at every frequency",
     frozenset({"inertia_error", "sensor_gain"}):
         "a measured force or a second position sensor: an inertia error changes the force-acceleration ratio, "
         "a sensor gain only the reading",
