@@ -270,8 +270,10 @@ class Identifier:
                 if c is not best:
                     c.accepted = False
                     c.reason = "passes, but another candidate validates better"
+            # a look-alike whose size is within the nominal model's own tolerance is no rival (case 61007: an
+            # inertia error of under 5 % beside a shaft's compliance)
             alike = [(fm, c) for fm, c in fitted if c is not best and c.name in lookalikes(best.name)
-                     and c.ci_excludes_absent and not c.at_bound
+                     and c.ci_excludes_absent and not c.at_bound and not effect_evidence(ad.effects[c.name], fm)[2]
                      and fm.val_score <= (1 + self.ambiguity) * best_fm.val_score]
             if alike:
                 ambiguous.append(Ambiguity(
