@@ -369,12 +369,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     for r in swept:  # metrics cached under another reward than today's default one: evaluate again
         m, model, env_id = r["metrics"], r["model"], r["trial"]["env_id"]
+        if m is None:
+            continue
         dropped = split_reward_kwargs(env_id, training_env_kwargs(model, env_id))[1]
-        agent = (m or {}).get("agent", {})
+        agent = m.get("agent", {})
         # taken before returns were scored under the default reward, or before REWARD_KWARGS listed every
         # reward-only argument the agent was trained with (the throw's shaping)
-        if m is not None and dropped and (agent.get("reward") != "default"
-                                          or set(agent.get("training_reward_kwargs", {})) != set(dropped)):
+        if dropped and (agent.get("reward") != "default"
+                        or set(agent.get("training_reward_kwargs", {})) != set(dropped)):
             r["metrics"] = evaluate_agent(model, env_id, a.episodes)
     wall_min = (time.perf_counter() - wall0) / 60.0
     command = "python -m benchmarks.rl_vs_baselines " + " ".join(argv if argv is not None else sys.argv[1:])
