@@ -255,9 +255,14 @@ def with_switch_on(fm: FittedModel, spec: EffectSpec, switch: ParamSpec) -> Fitt
                                ci=np.vstack([reduced.ci.reshape(-1, 2), [[switch.lower, switch.lower]]]))
 
 
+def effect_values(fm: FittedModel, name: str) -> dict[str, float]:
+    """The fitted values of effect ``name``'s keys in ``fm`` (``name.param`` -> value)."""
+    return {k: v for k, v in fm.theta().items() if k.startswith(f"{name}.")}
+
+
 def without_effect(fm: FittedModel, name: str) -> FittedModel:
     """``fm`` with effect ``name`` and its parameters taken out (not refitted; scores are ``fm``'s)."""
-    reduced = without_keys(fm, [k for k in fm.keys if k.startswith(f"{name}.")])
+    reduced = without_keys(fm, list(effect_values(fm, name)))
     return dataclasses.replace(reduced, effects=tuple(e for e in fm.effects if e != name))
 
 

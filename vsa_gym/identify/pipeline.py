@@ -40,6 +40,7 @@ from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.fitting import (
     compared,
     effect_evidence,
+    effect_values,
     fit_model,
     lstsq_sse,
     part_end,
@@ -327,7 +328,7 @@ class Identifier:
             cands.append(Candidate(rnd, name, float("nan"), True, alone.val_score, alone.bic, accepted=True,
                                    reason=f"refitted from the joint fit with {cand.name} (validation "
                                           f"{alone.val_score:.4g} vs {current.val_score:.4g} before)",
-                                   values={k: v for k, v in alone.theta().items() if k.startswith(f"{name}.")}))
+                                   values=effect_values(alone, name)))
         return alone
 
     def _reordered(self, ad: Adapter, start: FittedModel, current: FittedModel, name: str,
@@ -337,18 +338,20 @@ class Identifier:
         An effect fitted alone can settle where it stands in for a missing one, and the joint refit with the
         missing one added then stays there: a shaft's compliance fitted without the sensor's delay takes the
         delay's phase lag into a softer shaft with its damping at the bound, and adding the delay leaves it there
-        (truth case 71023: validation 0.0058 against 0.00078 when the delay comes first).  So the new effect is
+        (truth case 71023, a backlash chosen first: with the delay fitted first, 7.8e-4 at a floor of 7.2e-4).  So
+        the new effect is
         also fitted alone from ``start`` (round one's fit where there is one), ``current``'s effects added to
         it one by one, and the whole refitted jointly in ``current``'s order; the fit that leaves the smaller
         fit-part error is kept, as :meth:`_with` keeps the best of its starts."""
-        rev = solo.get(name) or self._with(ad, start, name, masks)
+        rev = solo[name] if name in solo else self._with(ad, start, name, masks)
         for effect in current.effects:
             rev = self._with(ad, rev, effect, masks)
         order = (*current.effects, name)
-        ranked = sorted(range(len(rev.keys)), key=lambda i: order.index(rev.keys[i].split(".")[0]) + 1
-                        if rev.keys[i].split(".")[0] in order else 0)
-        rev = fit_model(ad, {}, [rev.keys[i] for i in ranked], [rev.specs[i] for i in ranked], rev.theta(), masks,
-                        order, self.max_nfev)
+        # the nuisance keys first, then each effect's keys in the usual order (the key's prefix is its effect)
+        rank = [order.index(e) + 1 if (e := k.split(".")[0]) in order else 0 for k in rev.keys]
+        idx = sorted(range(len(rev.keys)), key=rank.__getitem__)
+        rev = fit_model(ad, {}, [rev.keys[i] for i in idx], [rev.specs[i] for i in idx], rev.theta(), masks, order,
+                        self.max_nfev)
         return rev if rev.sse_fit < fm.sse_fit else fm
 
     def _resolved(self, ambiguous: list[Ambiguity], before: FittedModel, after: FittedModel, floor: float,
@@ -438,7 +441,7 @@ class Identifier:
         cands.append(Candidate(rnd, new, float("nan"), True, alt.val_score, alt.bic, accepted=True,
                                reason=f"replaces {old} beside {fm.effects[-1]} (validation {alt.val_score:.4g} vs "
                                       f"{fm.val_score:.4g})",
-                               values={k: v for k, v in alt.theta().items() if k.startswith(f"{new}.")}))
+                               values=effect_values(alt, new)))
         return alt
 
     def _nominal(self, ad: Adapter, masks: dict[str, np.ndarray]) -> FittedModel:
