@@ -4,7 +4,7 @@
 
 1. Replay the nominal model (free base parameters refitted by simulation-error least squares).
 2. Rank the candidate effects by regressing the residual on their signatures
-   (secant sensitivities from one batched replay), fit the best few by
+   (secant sensitivities from one batched replay, :mod:`vsa_gym.identify.ranking`), fit the best few by
    simulation-error least squares (scipy ``least_squares``, Jacobian from one batched
    replay per iteration), with 95 % confidence intervals from the Jacobian, inflated
    by the residual's lag-1 autocorrelation (effective sample size).
@@ -24,14 +24,13 @@
    refitted by full simulation error where that no longer runs away.
 5. Score nominal and final model once on the held-out test part.
 
-Results: :mod:`vsa_gym.identify.result`.
+Results (and the held-out scoring of step 5): :mod:`vsa_gym.identify.result`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 
@@ -42,14 +41,20 @@ from vsa_gym.identify.fitting import (
     effect_evidence,
     effect_values,
     fit_model,
-    lstsq_sse,
-    part_end,
     validation_blind,
     with_values,
     without_effect,
 )
+from vsa_gym.identify.ranking import rank_candidates
 from vsa_gym.identify.record import Record
-from vsa_gym.identify.result import Candidate, FittedModel, IdentificationResult, output_metrics, residual_tests
+from vsa_gym.identify.result import (
+    Candidate,
+    FittedModel,
+    IdentificationResult,
+    output_metrics,
+    residual_tests,
+    scored_result,
+)
 from vsa_gym.identify.selection import (
     Ambiguity,
     excess_share,
@@ -60,10 +65,6 @@ from vsa_gym.identify.selection import (
     shares_force,
 )
 from vsa_gym.identify.starts import main_start, shape_variants, split_start, switch_flips
-
-#: multiples of a candidate's typical size at which its ranking signature is taken (:meth:`Identifier._rank_sizes`)
-RANK_SIZES: tuple[float, ...] = (1.0, 4.0, 16.0)
-
 
 # ----------------------------------------------------------------------------- estimator
 #: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
@@ -162,7 +163,7 @@ class Identifier:
         elif self.shooting == "auto" and current.val_score > DRIFT_NRMSE and ad.can_shoot():
             current, cands, ambiguous, mode = self._second_opinion(ad, record, masks, floors, current, cands,
                                                                    ambiguous, mode)
-        self.result_ = self._score(record, ad, nominal, current, cands, masks, test_record)
+        self.result_ = scored_result(record, ad, nominal, current, cands, masks, test_record)
         self.result_ = dataclasses.replace(self.result_, ambiguous=ambiguous, replay_mode=mode, noise_floor=floor)
         return self
 
@@ -247,7 +248,7 @@ class Identifier:
                           f"({current.val_score:.3g} vs {floors['validation']:.3g})")
                 cands += [Candidate(rnd, name, float("nan"), reason=reason) for name in remaining]
                 break
-            ranked = self._rank(ad, current, remaining, masks["fit"])
+            ranked = rank_candidates(ad, current, remaining, masks["fit"])
             # the best few, the look-alikes of the best, whatever can take a share of an accepted force (its
             # signature beside a force that already carries the sum ranks low), and what passed alone in round one
             passed_alone = {c.name for _, c in first}
@@ -559,98 +560,6 @@ class Identifier:
                                               f"{s_red:.4g} without it vs {s_fm:.4g})"))
                 return reduced
         return fm
-
-    def _rank(self, ad: Adapter, cur: FittedModel, names: list[str], mask: np.ndarray) -> list[tuple[str, float]]:
-        """Share of the residual's SSE each candidate's signature explains beyond the free parameters."""
-        theta0 = cur.theta()
-        rows: list[dict[str, float]] = [dict(theta0)]
-        for k, s in zip(cur.keys, cur.specs, strict=True):  # sensitivities of the already-free parameters
-            rows.append({**theta0, k: theta0[k] + 0.01 * (abs(s.typical - s.absent) or 1.0)})
-        owner: list[str] = []  # the candidate of each signature row
-        for name in names:
-            spec = ad.effects[name]
-            restart = ad.restarts(name, theta0)  # its signature is also taken from where it is also fitted
-            for moved in ({}, restart) if restart else ({},):
-                for size in self._rank_sizes(spec):
-                    rows.append({**theta0, **moved, **{k: p.typical for k, p in zip(spec.keys, spec.params,
-                                                                                      strict=True)}, **size})
-                    owner.append(name)
-        keys = sorted({k for r in rows for k in r})
-        n = len(rows)
-        theta = {}
-        for k in keys:
-            default = next((p.absent for nm in ad.effects for kk, p in zip(ad.effects[nm].keys, ad.effects[nm].params,
-                                                                            strict=True) if kk == k), None)
-            if default is None:
-                default = theta0.get(k, 0.0)
-            theta[k] = np.array([r.get(k, default) for r in rows])
-        y = ad.simulate(theta, n, until=part_end(mask))
-        sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(y.shape[2])])
-        Y = (y[mask] / sd).transpose(1, 0, 2).reshape(n, -1)
-        r = ((ad.measured[mask] / sd).reshape(-1) - Y[0])
-        nb = len(cur.keys)
-        B = np.nan_to_num((Y[1:1 + nb] - Y[0]).T, nan=0.0, posinf=0.0, neginf=0.0)
-        base_sse = lstsq_sse(B, r)
-        best: dict[str, float] = {}
-        for i, name in enumerate(owner):
-            sig = Y[1 + nb + i] - Y[0]
-            if not np.all(np.isfinite(sig)):  # a size whose replay diverged says nothing about the effect
-                best.setdefault(name, -np.inf)
-                continue
-            S = np.column_stack([B, sig])
-            best[name] = max(best.get(name, -np.inf), float((base_sse - lstsq_sse(S, r)) / (base_sse or 1.0)))
-        return sorted(best.items(), key=lambda s: -s[1])
-
-    @staticmethod
-    def _rank_sizes(spec: EffectSpec) -> list[dict[str, float]]:
-        """Main-parameter sizes at which a candidate's signature is taken: its typical size, and 4x and 16x it
-        where the bounds allow.  The signature of a gap, a stick-slip or a presliding loop changes its shape with
-        the size, so one secant at the typical size can miss an effect several times larger (a closed-loop
-        backlash of 6x the typical width ranked tenth of twelve on its typical-size secant)."""
-        k, p = spec.main_param
-        step = p.typical - p.absent
-        sizes = [{k: p.typical}]
-        for f in RANK_SIZES[1:]:
-            v = p.absent + f * step
-            if p.lower <= v <= p.upper - 0.02 * (p.upper - p.lower):
-                sizes.append({k: v})
-        return sizes
-
-    def _score(self, record: Record, ad: Adapter, nominal: FittedModel, final: FittedModel,
-               cands: list[Candidate], masks: dict[str, np.ndarray],
-               test_record: Record | None) -> IdentificationResult:
-        if test_record is not None:
-            tad = ad.for_record(test_record)
-            skip = int(test_record.meta.get("skip_samples", 0))
-            tm = test_record.masks().get("test")
-            if tm is None:
-                tm = np.zeros(len(test_record), dtype=bool)
-                tm[skip:] = True
-            name = f"test record {Path(test_record.path).name} (samples {int(np.argmax(tm))}…{len(test_record) - 1})"
-        elif "test" in masks:
-            tad, tm = ad, masks["test"]
-            name = "test part of the record"
-        else:
-            tad, tm = ad, masks["validation"]
-            name = "validation part of the record (no test part given)"
-
-        def sim(fm: FittedModel) -> np.ndarray:
-            return tad.simulate({k: np.array([v]) for k, v in fm.theta().items()}, 1)[:, 0, :]
-
-        y0, y1 = sim(nominal), sim(final)
-        meas = tad.measured
-        before, after, dbef, daft = {}, {}, {}, {}
-        u = getattr(tad, "u", np.zeros(len(tad.t)))
-        for j, s in enumerate(tad.outputs):
-            before[s.column] = output_metrics(meas[tm, j], y0[tm, j])
-            after[s.column] = output_metrics(meas[tm, j], y1[tm, j])
-            dbef[s.column] = residual_tests(y0[tm, j] - meas[tm, j], u[tm])
-            daft[s.column] = residual_tests(y1[tm, j] - meas[tm, j], u[tm])
-        unexplained = (final.val_score / nominal.val_score) ** 2 if nominal.val_score > 0 else 0.0
-        data = {"t": tad.t[tm], "measured": meas[tm], "nominal": y0[tm], "extended": y1[tm]}
-        return IdentificationResult(record, ad, nominal, final, cands, before, after, dbef, daft, name, data,
-                                    float(unexplained))
-
 
 def identify(data: str, *, max_effects: int = 2, replay: str | None = None, candidates: Sequence[str] | None = None,
              ) -> IdentificationResult:

@@ -261,4 +261,43 @@ def _has_tabulate() -> bool:
     return True
 
 
-__all__ = ["Candidate", "FittedModel", "IdentificationResult", "acf", "output_metrics", "residual_tests"]
+
+def scored_result(record: Record, ad: Adapter, nominal: FittedModel, final: FittedModel, cands: list[Candidate],
+                  masks: dict[str, np.ndarray], test_record: Record | None) -> IdentificationResult:
+    """The result of an identification: ``nominal`` and ``final`` replayed once on the held-out data (the test
+    record where one is given, else the record's test part, else its validation part) and scored there."""
+    if test_record is not None:
+        tad = ad.for_record(test_record)
+        skip = int(test_record.meta.get("skip_samples", 0))
+        tm = test_record.masks().get("test")
+        if tm is None:
+            tm = np.zeros(len(test_record), dtype=bool)
+            tm[skip:] = True
+        name = f"test record {Path(test_record.path).name} (samples {int(np.argmax(tm))}…{len(test_record) - 1})"
+    elif "test" in masks:
+        tad, tm = ad, masks["test"]
+        name = "test part of the record"
+    else:
+        tad, tm = ad, masks["validation"]
+        name = "validation part of the record (no test part given)"
+
+    def sim(fm: FittedModel) -> np.ndarray:
+        return tad.simulate({k: np.array([v]) for k, v in fm.theta().items()}, 1)[:, 0, :]
+
+    y0, y1 = sim(nominal), sim(final)
+    meas = tad.measured
+    before, after, dbef, daft = {}, {}, {}, {}
+    u = getattr(tad, "u", np.zeros(len(tad.t)))
+    for j, s in enumerate(tad.outputs):
+        before[s.column] = output_metrics(meas[tm, j], y0[tm, j])
+        after[s.column] = output_metrics(meas[tm, j], y1[tm, j])
+        dbef[s.column] = residual_tests(y0[tm, j] - meas[tm, j], u[tm])
+        daft[s.column] = residual_tests(y1[tm, j] - meas[tm, j], u[tm])
+    unexplained = (final.val_score / nominal.val_score) ** 2 if nominal.val_score > 0 else 0.0
+    data = {"t": tad.t[tm], "measured": meas[tm], "nominal": y0[tm], "extended": y1[tm]}
+    return IdentificationResult(record, ad, nominal, final, cands, before, after, dbef, daft, name, data,
+                                float(unexplained))
+
+
+__all__ = ["Candidate", "FittedModel", "IdentificationResult", "acf", "output_metrics", "residual_tests",
+           "scored_result"]
