@@ -350,3 +350,13 @@ def test_a_newcomer_that_only_moved_the_earlier_effect_is_not_named(tmp_path):
     assert [e["name"] for e in res["effects"]] == ["backlash"], res["statements"]
     assert res["effects"][0]["parameters"]["width"] == pytest.approx(truth["main"]["backlash"], rel=0.15)
     assert any("not needed: refitted from this joint fit" in c["reason"] for c in res["candidates"])
+
+
+def test_two_forces_that_pass_only_together_are_named_together(tmp_path):
+    """Case 61016 of the seed-61 pairs set (a vertical ball screw in closed loop, moves at 200 Hz, motor encoder,
+    voltage drive; 208 N of gravity and 102 N of Coulomb friction): alone, the load force fits the fit part 6x
+    better than the nominal model but validates worse, and the friction alone cannot hold the load, so nothing
+    passed round one and nothing was named.  Where nothing passes alone, the candidate that fits the fit part
+    best is now fitted together with the others: the two forces pass as a pair, each within 15 %."""
+    res = _pair_named_within_15_percent(tmp_path, 61016, ("coulomb_friction", "force_offset"), None)
+    assert any(c.accepted and c.reason.startswith("passes only together with") for c in res.candidates)
