@@ -22,7 +22,11 @@ improved: ``metrics.after[q].rmse < metrics.before[q].rmse``.  Seconds are norma
 record at 1 kHz (``seconds * 20000 / samples``); that scales the cost of a 200 Hz record (whose stiff modes
 ask for more substeps per sample) up five times.  ``--rate 1000 --duration 20`` draws every case at exactly
 20 s and 1 kHz instead (the rest of each case as drawn from its seed), so that ``seconds`` itself is the
-time per 20 s at 1 kHz; with ``--jobs 1`` and nothing else on the machine, on one core.
+time per 20 s at 1 kHz; with ``--jobs 1`` and nothing else on the machine, on one core: the linear algebra
+library (OpenBLAS) is held to one thread in every worker (``OPENBLAS_NUM_THREADS=1`` and its kin, set before
+numpy is imported, unless already set).  That is also faster on a small machine (docs/identification.md, "Time
+per record"): its threads spin between the many small least-squares steps, and two runs side by side slow each
+other down several times over.
 
 Writes ``OUT/results.json`` (every case and the summary) and ``OUT/results.md``.
 """
@@ -33,6 +37,7 @@ import argparse
 import contextlib
 import io
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -41,9 +46,12 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):  # one core, before numpy loads
+    os.environ.setdefault(_var, "1")
 
-from tests.truthsim.scenarios import EFFECTS, MAIN, draw_case, write_case
+import numpy as np  # noqa: E402
+
+from tests.truthsim.scenarios import EFFECTS, MAIN, draw_case, write_case  # noqa: E402
 
 REL_TOL = 0.15
 #: two-effect cases, in the order ``--pairs N`` takes them
