@@ -76,7 +76,7 @@ DRIFT_NRMSE = 0.1
 #: where that validated within RUNNER_UP times the winner's error; the runner-up's branch must validate below
 #: BRANCH_GAIN times the selection's error to replace it (:meth:`Identifier._runner_up`)
 BRANCH_FLOOR = 10.0
-RUNNER_UP = 1.25
+RUNNER_UP = 2.0
 BRANCH_GAIN = 0.5
 
 
