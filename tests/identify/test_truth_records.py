@@ -354,7 +354,7 @@ def test_a_newcomer_that_only_moved_the_earlier_effect_is_not_named(tmp_path):
 
 def test_two_forces_that_pass_only_together_are_named_together(tmp_path):
     """Case 61016 of the seed-61 pairs set (a vertical ball screw in closed loop, moves at 200 Hz, motor encoder,
-    voltage drive; 208 N of gravity and 102 N of Coulomb friction): alone, the load force fits the fit part 6x
+    voltage drive; 208 N of gravity and 102 N of Coulomb friction): alone, the load force fits the fit part
     better than the nominal model but validates worse, and the friction alone cannot hold the load, so nothing
     passed round one and nothing was named.  Where nothing passes alone, the candidate that fits the fit part
     best is now fitted together with the others: the two forces pass as a pair, each within 15 %."""

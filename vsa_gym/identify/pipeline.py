@@ -8,17 +8,11 @@
    simulation-error least squares (scipy ``least_squares``, Jacobian from one batched
    replay per iteration), with 95 % confidence intervals from the Jacobian, inflated
    by the residual's lag-1 autocorrelation (effective sample size).
-3. Accept an effect only if (a) the validation error drops by ``margin``, (b) a further effect
-   removes ``min_share_next`` (``min_share_fit`` judged on the fit part) of the misfit above the estimated
-   noise floor, (c) BIC drops,
-   (d) the CI of its main parameter excludes "absent" and the parameter is beyond the nominal
-   model's tolerance, (e) no shape parameter is stuck at a bound.  Where the validation part cannot tell
-   the candidate from the model before (their replays differ there by less than the noise floor: a closed loop
-   on an offset sensor tracks its reference either way), (a) and (b) are judged on the fit part instead, with
-   the stricter share (:func:`vsa_gym.identify.fitting.compared`), and the candidate's ``judged_on`` says so; every
-   candidate is refitted jointly with what is accepted, look-alikes side by side (ambiguous
-   when they validate alike), and earlier effects the new set no longer needs are dropped
-   (:mod:`vsa_gym.identify.selection`).  Then look for a further effect (up to ``max_effects``).
+3. Accept an effect only by the rules of :mod:`vsa_gym.identify.rules` (error, share of the misfit above the
+   noise floor, BIC, CI, bounds, size; judged on the fit part where the validation part cannot tell the
+   candidate from the model before).  Every candidate is refitted jointly with what is accepted, look-alikes
+   side by side (ambiguous when they validate alike), and earlier effects the new set no longer needs are
+   dropped (:mod:`vsa_gym.identify.selection`).  Then look for a further effect (up to ``max_effects``).
 4. A full open-loop replay that runs away (and stays away with the effects found) is replaced
    by multiple shooting (windows started from the measured state); the selected model is then
    refitted by full simulation error where that no longer runs away.
@@ -55,6 +49,7 @@ from vsa_gym.identify.result import (
     residual_tests,
     scored_result,
 )
+from vsa_gym.identify.rules import judge
 from vsa_gym.identify.selection import (
     Ambiguity,
     excess_share,
@@ -343,15 +338,15 @@ class Identifier:
         """Two effects that pass only together, where none passed alone in round one; else None.
 
         Each of two forces can be needed for the other to show: on a vertical axis in closed loop (truth case
-        61016: 208 N of gravity, 102 N of Coulomb friction) the load force alone fits the fit part 6x better but
-        validates worse than the nominal model, and the friction alone fits worse (it cannot hold the load); the
-        two together validate at 2.4e-6 against 0.022.  So where the nominal model is well above the noise floor
-        (:attr:`floor_factor`) and the candidate that fits the fit part best removes most of its misfit there
-        (:attr:`min_share_next` of the excess), the others are ranked beside it and the best :attr:`n_fit`
-        fitted jointly with it.  A pair is accepted by the same rules as a single effect against the nominal
-        model (the second effect's evidence as in round one), and also if the first effect's evidence stands
-        beside it, both are at least :attr:`min_size_next` of their typical sizes, and the pair validates better
-        by the margin than the first effect alone; of those, the one that validates best."""
+        61016: 208 N of gravity, 102 N of Coulomb friction) the load force alone fits the fit part better but
+        validates no better than the nominal model, and the friction alone validates worse (it cannot hold the
+        load); the two together validate at 2.4e-6 against 0.022. So where the nominal model is well above the
+        noise floor (:attr:`floor_factor`) and the candidate that fits the fit part best removes most of its
+        misfit there (:attr:`min_share_next` of the excess), the others are ranked beside it and the best
+        :attr:`n_fit` fitted jointly with it. A pair is accepted by the same rules as a single effect against
+        the nominal model (the second effect's evidence as in round one), and also if the first effect's
+        evidence stands beside it, both are at least :attr:`min_size_next` of their typical sizes, and the pair
+        validates better by the margin than the first effect alone; of those, the one that validates best."""
         if start.val_score < self.floor_factor * floors["validation"] or not fitted:
             return None
         base, base_cand = min(fitted, key=lambda p: p[0].fit_score)
@@ -571,43 +566,10 @@ class Identifier:
 
     def _judge(self, ad: Adapter, cand: Candidate, fm: FittedModel, current: FittedModel,
                floors: dict[str, float]) -> None:
-        spec = ad.effects[cand.name]
-        cand.fitted = True
-        cand.val_score, cand.bic = fm.val_score, fm.bic
-        cand.values = {k: fm.param(k)[0] for k in spec.keys if k in fm.keys}
-        new, cur, part = compared(fm, current, floors["validation"])
-        cand.judged_on = part
-        cand.share = excess_share(new, cur, floors[part])
-        main = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main]
-        cand.ci_excludes_absent, cand.at_bound, small = effect_evidence(spec, fm)
-        reasons = []
-        if not new < (1 - self.margin) * cur:
-            reasons.append(f"{part} error {new:.4g} vs {cur:.4g} (needs -{100 * self.margin:.0f} %)")
-        # judged on the fit part (the validation part cannot see it), an effect must remove most of the misfit
-        # above the noise floor even as the first one: the strict share stands in for the missing validation
-        need = (self.min_share_fit if part != "validation"
-                else self.min_share_next if current.effects else self.min_share)
-        if cand.share < need:
-            reasons.append(f"removes {100 * cand.share:.0f} % of the misfit above the noise floor "
-                           f"(needs {100 * need:.0f} %)")
-        if not fm.bic < current.bic:
-            reasons.append("BIC not improved")
-        if not cand.ci_excludes_absent:
-            reasons.append("CI includes absent")
-        if cand.at_bound:
-            reasons.append("parameter at a bound")
-        if small:
-            reasons.append(f"{', '.join(small)} within the nominal model's tolerance")
-        minor = [k for k, p in main if current.effects and k not in small
-                 and abs(fm.param(k)[0] - p.absent) < self.min_size_next * abs(p.typical - p.absent)]
-        if minor:
-            reasons.append(f"{', '.join(minor)} below {self.min_size_next:g}x its typical size beside "
-                           f"{', '.join(current.effects)} (structure detail, not a further effect)")
-        cand.accepted = not reasons
-        cand.reason = "; ".join(reasons) if reasons else "passes all criteria"
-        if part == "fit":
-            cand.reason += (" (judged on the fit part: on the validation part its replay differs from the model "
-                            "before by less than the noise floor, so only the fit part holds its evidence)")
+        """:func:`vsa_gym.identify.rules.judge` with this estimator's thresholds."""
+        judge(cand, ad.effects[cand.name], fm, current, floors, margin=self.margin, min_share=self.min_share,
+              min_share_next=self.min_share_next, min_share_fit=self.min_share_fit,
+              min_size_next=self.min_size_next)
 
     def _prune(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray], cands: list[Candidate],
                rnd: int, floor: float) -> FittedModel:

@@ -1,0 +1,63 @@
+"""The acceptance rules of one candidate effect (step 3 of :mod:`vsa_gym.identify.pipeline`).
+
+A candidate fitted jointly with the effects already accepted is accepted against the model before it only if
+(a) its error drops by ``margin``, (b) it removes a share of that model's misfit above the noise floor
+(:func:`vsa_gym.identify.selection.excess_share`), (c) BIC drops, (d) the CI of its main parameter excludes
+"absent" and the parameter is beyond the nominal model's tolerance, (e) no checked parameter is stuck at a
+bound, and (f) beside an accepted effect its main parameter is at least ``min_size_next`` of its typical size.
+(a) and (b) are judged on the validation part unless it cannot tell the two models apart
+(:func:`vsa_gym.identify.fitting.compared`), then on the fit part with the stricter share ``min_share_fit``.
+"""
+
+from __future__ import annotations
+
+from vsa_gym.identify.effects import EffectSpec
+from vsa_gym.identify.fitting import compared, effect_evidence
+from vsa_gym.identify.result import Candidate, FittedModel
+from vsa_gym.identify.selection import excess_share
+
+
+def judge(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: FittedModel, floors: dict[str, float], *,
+          margin: float, min_share: float, min_share_next: float, min_share_fit: float,
+          min_size_next: float) -> None:
+    """Fill ``cand`` (effect ``spec``, fitted as ``fm``) with its scores and evidence against ``current``, and set
+    ``cand.accepted`` and ``cand.reason`` by the rules above (``floors``: the noise floor of each record part,
+    as a validation NRMSE)."""
+    cand.fitted = True
+    cand.val_score, cand.bic = fm.val_score, fm.bic
+    cand.values = {k: fm.param(k)[0] for k in spec.keys if k in fm.keys}
+    new, cur, part = compared(fm, current, floors["validation"])
+    cand.judged_on = part
+    cand.share = excess_share(new, cur, floors[part])
+    main = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.main]
+    cand.ci_excludes_absent, cand.at_bound, small = effect_evidence(spec, fm)
+    reasons = []
+    if not new < (1 - margin) * cur:
+        reasons.append(f"{part} error {new:.4g} vs {cur:.4g} (needs -{100 * margin:.0f} %)")
+    # judged on the fit part (the validation part cannot see it), an effect must remove most of the misfit
+    # above the noise floor even as the first one: the strict share stands in for the missing validation
+    need = min_share_fit if part != "validation" else min_share_next if current.effects else min_share
+    if cand.share < need:
+        reasons.append(f"removes {100 * cand.share:.0f} % of the misfit above the noise floor "
+                       f"(needs {100 * need:.0f} %)")
+    if not fm.bic < current.bic:
+        reasons.append("BIC not improved")
+    if not cand.ci_excludes_absent:
+        reasons.append("CI includes absent")
+    if cand.at_bound:
+        reasons.append("parameter at a bound")
+    if small:
+        reasons.append(f"{', '.join(small)} within the nominal model's tolerance")
+    minor = [k for k, p in main if current.effects and k not in small
+             and abs(fm.param(k)[0] - p.absent) < min_size_next * abs(p.typical - p.absent)]
+    if minor:
+        reasons.append(f"{', '.join(minor)} below {min_size_next:g}x its typical size beside "
+                       f"{', '.join(current.effects)} (structure detail, not a further effect)")
+    cand.accepted = not reasons
+    cand.reason = "; ".join(reasons) if reasons else "passes all criteria"
+    if part == "fit":
+        cand.reason += (" (judged on the fit part: on the validation part its replay differs from the model "
+                        "before by less than the noise floor, so only the fit part holds its evidence)")
+
+
+__all__ = ["judge"]
