@@ -353,12 +353,25 @@ class Identifier:
         if excess_share(base.fit_score, start.fit_score, floors["fit"]) < self.min_share_next:
             return None
         others = [n for n in names if n != base_cand.name]
+        tried_alone = {c.name for _, c in fitted}
         best: tuple[FittedModel, Candidate] | None = None
+        single: tuple[FittedModel, Candidate] | None = None
         for name, score in rank_candidates(ad, base, others, masks["fit"])[:self.n_fit]:
             fm = self._with(ad, base, name, masks)
             cand = Candidate(rnd, name, score)
             self._judge(ad, cand, fm, start, floors)
             excludes, at_bound, small = effect_evidence(ad.effects[base_cand.name], fm)
+            if cand.accepted and name not in tried_alone and not (excludes and not at_bound and not small):
+                # the partner carries it all and round one never fitted it alone (low rank): refitted from here
+                # without the first effect, it is judged as round one would have judged it
+                alone = self._refit(ad, without_effect(fm, base_cand.name), masks)
+                solo = Candidate(rnd, name, score)
+                self._judge(ad, solo, alone, start, floors)
+                solo.reason = (f"fitted alone from its fit beside {base_cand.name}, which it did not need (round one "
+                               f"did not fit it: low rank): {solo.reason}")
+                cands.append(solo)
+                if solo.accepted and (single is None or alone.val_score < single[0].val_score):
+                    single = (alone, solo)
             minor = [k for e in fm.effects for k, p in [ad.effects[e].main_param]
                      if abs(fm.param(k)[0] - p.absent) < self.min_size_next * abs(p.typical - p.absent)]
             s_pair, s_base, part = compared(fm, base, floors["validation"])
@@ -376,7 +389,16 @@ class Identifier:
             if cand.accepted and (best is None or fm.val_score < best[0].val_score):
                 best = (fm, cand)
         if best is None:
-            return None
+            if single is None:
+                return None
+            for c in cands:  # the best single only
+                if c.accepted and c is not single[1] and c.round == rnd and c.reason.startswith("fitted alone from"):
+                    c.accepted = False
+                    c.reason += "; another validates better"
+            return single[0]
+        if single is not None:
+            single[1].accepted = False
+            single[1].reason += "; a pair passes"
         fm, cand = best
         for c in cands:
             if c.accepted and c is not cand and c.round == rnd and c.reason.startswith("fitted together"):
