@@ -346,7 +346,10 @@ class Identifier:
         :attr:`n_fit` fitted jointly with it. A pair is accepted by the same rules as a single effect against
         the nominal model (the second effect's evidence as in round one), and also if the first effect's
         evidence stands beside it, both are at least :attr:`min_size_next` of their typical sizes, and the pair
-        validates better by the margin than the first effect alone; of those, the one that validates best."""
+        validates better by the margin than the first effect alone; of those, the one that validates best. A
+        partner that did not need the first effect and that round one never fitted (low rank) is refitted alone
+        from there and judged as round one judges (fresh case 97021: a mesh loss ranked below the five fitted);
+        where no pair passes, the best such single effect is returned."""
         if start.val_score < self.floor_factor * floors["validation"] or not fitted:
             return None
         base, base_cand = min(fitted, key=lambda p: p[0].fit_score)
