@@ -276,6 +276,13 @@ def effect_evidence(spec: EffectSpec, fm: FittedModel) -> tuple[bool, bool, list
     return excludes, at_bound, small
 
 
+def effect_sound(spec: EffectSpec, fm: FittedModel) -> bool:
+    """Whether ``fm``'s evidence for effect ``spec`` stands (:func:`effect_evidence`): every main parameter's CI
+    excludes "absent", no bound-checked parameter sits at a bound, and none is within the nominal tolerance."""
+    excludes, at_bound, small = effect_evidence(spec, fm)
+    return excludes and not at_bound and not small
+
+
 def lstsq_sse(A: np.ndarray, r: np.ndarray) -> float:
     if A.shape[1] == 0:
         return float(np.dot(r, r))

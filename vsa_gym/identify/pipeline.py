@@ -33,6 +33,7 @@ from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.fitting import (
     compared,
     effect_evidence,
+    effect_sound,
     effect_values,
     fit_model,
     validation_blind,
@@ -49,7 +50,7 @@ from vsa_gym.identify.result import (
     residual_tests,
     scored_result,
 )
-from vsa_gym.identify.rules import judge
+from vsa_gym.identify.rules import judge, undersized
 from vsa_gym.identify.selection import (
     Ambiguity,
     excess_share,
@@ -287,7 +288,7 @@ class Identifier:
             # a look-alike whose size is within the nominal model's own tolerance is no rival (case 61007: an
             # inertia error of under 5 % beside a shaft's compliance)
             alike = [(fm, c) for fm, c in fitted if c is not best and c.name in lookalikes(best.name)
-                     and c.ci_excludes_absent and not c.at_bound and not effect_evidence(ad.effects[c.name], fm)[2]
+                     and effect_sound(ad.effects[c.name], fm)
                      and fm.val_score <= (1 + self.ambiguity) * best_fm.val_score]
             if alike:
                 ambiguous.append(Ambiguity(
@@ -357,14 +358,14 @@ class Identifier:
             return None
         others = [n for n in names if n != base_cand.name]
         tried_alone = {c.name for _, c in fitted}
-        best: tuple[FittedModel, Candidate] | None = None
-        single: tuple[FittedModel, Candidate] | None = None
+        pairs: list[tuple[FittedModel, Candidate]] = []  # accepted pairs
+        singles: list[tuple[FittedModel, Candidate]] = []  # accepted partners refitted alone
         for name, score in rank_candidates(ad, base, others, masks["fit"])[:self.n_fit]:
             fm = self._with(ad, base, name, masks)
             cand = Candidate(rnd, name, score)
             self._judge(ad, cand, fm, start, floors)
-            excludes, at_bound, small = effect_evidence(ad.effects[base_cand.name], fm)
-            if cand.accepted and name not in tried_alone and not (excludes and not at_bound and not small):
+            base_sound = effect_sound(ad.effects[base_cand.name], fm)
+            if cand.accepted and name not in tried_alone and not base_sound:
                 # the partner carries it all and round one never fitted it alone (low rank): refitted from here
                 # without the first effect, it is judged as round one would have judged it
                 alone = self._refit(ad, without_effect(fm, base_cand.name), masks)
@@ -373,13 +374,12 @@ class Identifier:
                 solo.reason = (f"fitted alone from its fit beside {base_cand.name}, which it did not need (round one "
                                f"did not fit it: low rank): {solo.reason}")
                 cands.append(solo)
-                if solo.accepted and (single is None or alone.val_score < single[0].val_score):
-                    single = (alone, solo)
-            minor = [k for e in fm.effects for k, p in [ad.effects[e].main_param]
-                     if abs(fm.param(k)[0] - p.absent) < self.min_size_next * abs(p.typical - p.absent)]
+                if solo.accepted:
+                    singles.append((alone, solo))
+            minor = undersized(fm, [ad.effects[e].main_param for e in fm.effects], self.min_size_next)
             s_pair, s_base, part = compared(fm, base, floors["validation"])
             reasons = [] if cand.accepted else [cand.reason]
-            if not (excludes and not at_bound and not small):
+            if not base_sound:
                 reasons.append(f"{base_cand.name} beside it: CI includes absent, at a bound or within tolerance")
             if minor:
                 reasons.append(f"{', '.join(minor)} below {self.min_size_next:g}x its typical size")
@@ -389,24 +389,22 @@ class Identifier:
             cand.reason = (f"fitted together with {base_cand.name} (no effect passed alone; it fits the fit part "
                            f"best): " + ("passes all criteria as a pair" if cand.accepted else "; ".join(reasons)))
             cands.append(cand)
-            if cand.accepted and (best is None or fm.val_score < best[0].val_score):
-                best = (fm, cand)
-        if best is None:
-            if single is None:
-                return None
-            for c in cands:  # the best single only
-                if c.accepted and c is not single[1] and c.round == rnd and c.reason.startswith("fitted alone from"):
-                    c.accepted = False
-                    c.reason += "; another validates better"
-            return single[0]
-        if single is not None:
-            single[1].accepted = False
-            single[1].reason += "; a pair passes"
-        fm, cand = best
-        for c in cands:
-            if c.accepted and c is not cand and c.round == rnd and c.reason.startswith("fitted together"):
+            if cand.accepted:
+                pairs.append((fm, cand))
+        if not pairs and not singles:
+            return None
+        # the pair that validates best, else the single that does; every other accepted one stands down
+        fm, cand = min(pairs or singles, key=lambda p: p[0].val_score)
+        for _, c in singles:
+            if c is not cand:
+                c.accepted = False
+                c.reason += "; a pair passes" if pairs else "; another validates better"
+        for _, c in pairs:
+            if c is not cand:
                 c.accepted = False
                 c.reason += "; another pair validates better"
+        if not pairs:
+            return fm
         base_cand.reason += f"; accepted together with {cand.name} (validation {fm.val_score:.4g})"
         cands.append(Candidate(rnd, base_cand.name, float("nan"), True, fm.val_score, fm.bic, accepted=True,
                                reason=f"passes only together with {cand.name} (validation {fm.val_score:.4g} vs "
@@ -509,10 +507,9 @@ class Identifier:
             reduced = without_effect(fm, old)
             for new in sorted(lookalikes(old) & set(names) - set(fm.effects)):
                 alt = self._with(ad, reduced, new, masks)
-                excludes, at_bound, small = effect_evidence(ad.effects[new], alt)
-                sound = excludes and not at_bound and not small
                 s_alt, s_fm, _ = compared(alt, fm, floor)
-                if sound and s_alt < factor * s_fm and (best is None or alt.val_score < best[0].val_score):
+                better = best is None or alt.val_score < best[0].val_score
+                if effect_sound(ad.effects[new], alt) and s_alt < factor * s_fm and better:
                     best = (alt, new, old)
         if best is None:
             return fm

@@ -11,10 +11,17 @@ bound, and (f) beside an accepted effect its main parameter is at least ``min_si
 
 from __future__ import annotations
 
-from vsa_gym.identify.effects import EffectSpec
+from collections.abc import Iterable
+
+from vsa_gym.identify.effects import EffectSpec, ParamSpec
 from vsa_gym.identify.fitting import compared, effect_evidence
 from vsa_gym.identify.result import Candidate, FittedModel
 from vsa_gym.identify.selection import excess_share
+
+
+def undersized(fm: FittedModel, params: Iterable[tuple[str, ParamSpec]], share: float) -> list[str]:
+    """The keys of ``params`` whose value in ``fm`` is closer to "absent" than ``share`` of their typical size."""
+    return [k for k, p in params if abs(fm.param(k)[0] - p.absent) < share * abs(p.typical - p.absent)]
 
 
 def judge(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: FittedModel, floors: dict[str, float], *,
@@ -48,8 +55,7 @@ def judge(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: FittedMod
         reasons.append("parameter at a bound")
     if small:
         reasons.append(f"{', '.join(small)} within the nominal model's tolerance")
-    minor = [k for k, p in main if current.effects and k not in small
-             and abs(fm.param(k)[0] - p.absent) < min_size_next * abs(p.typical - p.absent)]
+    minor = [k for k in undersized(fm, main, min_size_next) if current.effects and k not in small]
     if minor:
         reasons.append(f"{', '.join(minor)} below {min_size_next:g}x its typical size beside "
                        f"{', '.join(current.effects)} (structure detail, not a further effect)")
@@ -60,4 +66,4 @@ def judge(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: FittedMod
                         "before by less than the noise floor, so only the fit part holds its evidence)")
 
 
-__all__ = ["judge"]
+__all__ = ["judge", "undersized"]
