@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 
@@ -39,3 +40,26 @@ def test_join_excludes_the_given_case_seeds(tmp_path):
     assert {r["seed"] for r in json.loads((tmp_path / "j" / "results.json").read_text())["cases"]} == {5001, 5002}
     with pytest.raises(SystemExit, match="not in the joined results"):
         truth_main(["--join", str(tmp_path / "a"), "--exclude", "9", "--out", str(tmp_path / "k")])
+
+
+def test_swap_reach_reads_each_replacement_against_round_one_of_the_same_replay():
+    from benchmarks.swap_reach import replacements
+
+    def cand(rnd: int, name: str, val: float, reason: str, accepted: bool = False) -> dict:
+        return {"round": rnd, "name": name, "val_score": val, "reason": reason, "accepted": accepted}
+
+    case = {"candidates": [
+        cand(1, "hysteresis", 0.1, "passes all criteria"),
+        cand(1, "coulomb_friction", 0.3, "passes, but another candidate validates better"),
+        cand(1, "hysteresis", 0.02, "on shooting windows: passes all criteria"),
+        cand(1, "coulomb_friction", 0.01, "on shooting windows: passes, but another candidate validates better"),
+        cand(2, "coulomb_friction", 0.001, "replaces hysteresis beside stribeck_friction (validation ...)", True),
+        cand(2, "coulomb_friction", 0.002, "on shooting windows: from runner-up hysteresis: replaces hysteresis "
+             "beside viscous_friction (validation ...)"),
+        cand(2, "backlash", 0.002, "replaces coulomb_friction beside viscous_friction (validation ...)"),
+    ]}
+    got = replacements(case)
+    assert got[:2] == [("hysteresis", "coulomb_friction", 0.1, 0.3, True),
+                       ("hysteresis", "coulomb_friction", 0.02, 0.01, False)]
+    old, new, s_old, s_new, kept = got[2]  # a look-alike round one did not fit
+    assert (old, new, s_old, kept) == ("coulomb_friction", "backlash", 0.3, False) and math.isnan(s_new)
