@@ -63,3 +63,19 @@ def test_swap_reach_reads_each_replacement_against_round_one_of_the_same_replay(
                        ("hysteresis", "coulomb_friction", 0.02, 0.01, False)]
     old, new, s_old, s_new, kept = got[2]  # a look-alike round one did not fit
     assert (old, new, s_old, kept) == ("coulomb_friction", "backlash", 0.3, False) and math.isnan(s_new)
+
+
+def test_truth_refusals_lists_only_candidates_that_one_rule_refused_near_the_noise_floor():
+    from benchmarks.truth_refusals import refused_only_by
+
+    case = {"noise_floor_nrmse": 1e-4, "candidates": [
+        {"round": 1, "name": "backlash", "val_score": 2e-4, "reason": "parameter at a bound"},
+        {"round": 2, "name": "backlash", "val_score": 2e-4,
+         "reason": "from runner-up hysteresis: parameter at a bound"},
+        {"round": 1, "name": "backlash", "val_score": 9e-4, "reason": "parameter at a bound"},  # far above the floor
+        {"round": 1, "name": "backlash", "val_score": 2e-4, "reason": "CI includes absent; parameter at a bound"},
+        {"round": 1, "name": "hysteresis", "val_score": 2e-4, "reason": "parameter at a bound"},
+    ]}
+    got = refused_only_by(case, "parameter at a bound", 3.0, "backlash")
+    assert [(c["round"], c["val_score"]) for c in got] == [(1, 2e-4), (2, 2e-4)]
+    assert len(refused_only_by(case, "parameter at a bound", 3.0, None)) == 3

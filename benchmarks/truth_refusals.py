@@ -1,0 +1,60 @@
+"""Which candidates did one rule alone refuse, while they replayed the record near its noise floor?
+
+    python -m benchmarks.truth_refusals OUT_DIR [OUT_DIR ...] --rule "parameter at a bound" [--effect backlash]
+        [--within 3]
+
+Reads the ``results.json`` of :mod:`benchmarks.identify_truth` runs and lists every candidate whose only
+refusal reason is ``--rule`` (after the "on shooting windows" / "from runner-up" prefixes) and whose validation
+error is within ``--within`` times the record's noise floor, with the case's planted and named effects.  This is
+how to see what relaxing one rule would reach before changing it (the ninth session's look at case 97012: a
+backlash refused only for its start at the bound, beside the compliance cases where a backlash is refused the
+same way).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+PREFIX = re.compile(r"^(on shooting windows: )?(from runner-up \w+: )?")
+
+
+def refused_only_by(case: dict[str, Any], rule: str, within: float, effect: str | None) -> list[dict[str, Any]]:
+    """The candidates of ``case`` refused by ``rule`` alone, within ``within`` x the noise floor."""
+    floor = case.get("noise_floor_nrmse") or 0.0
+    out = []
+    for c in case["candidates"]:
+        reason = PREFIX.sub("", c["reason"])
+        val = c.get("val_score")
+        if (reason == rule and (effect is None or c["name"] == effect) and val is not None and val == val
+                and val <= within * floor):
+            out.append(c)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("dirs", nargs="+", help="OUT folders of benchmarks.identify_truth")
+    ap.add_argument("--rule", required=True, help='the refusal reason, e.g. "parameter at a bound"')
+    ap.add_argument("--effect", default=None, help="only candidates of this effect")
+    ap.add_argument("--within", type=float, default=3.0, help="validation error within this x the noise floor")
+    args = ap.parse_args(argv)
+    n = 0
+    for d in args.dirs:
+        for case in json.loads((Path(d) / "results.json").read_text())["cases"]:
+            for c in refused_only_by(case, args.rule, args.within, args.effect):
+                n += 1
+                print(f"{case['seed']:6d} planted {'+'.join(case['effects']) or 'nothing':45s} named "
+                      f"{'+'.join(case['named']) or 'nothing':45s} round {c['round']} {c['name']}: validation "
+                      f"{c['val_score']:.3g}, noise floor {case['noise_floor_nrmse']:.3g}"
+                      f"{'' if case.get('recovered') else '  [case missed]'}")
+    print(f"{n} candidates refused by {args.rule!r} alone within {args.within:g}x the noise floor")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
