@@ -52,7 +52,7 @@ from vsa_gym.identify.result import (
     residual_tests,
     scored_result,
 )
-from vsa_gym.identify.rules import judge
+from vsa_gym.identify.rules import bound_relieved, judge
 from vsa_gym.identify.selection import (
     Ambiguity,
     lookalikes,
@@ -69,6 +69,10 @@ RUNAWAY_NRMSE = 1.0
 #: a full open-loop replay whose selected model still leaves this validation NRMSE drifts: the selection is
 #: repeated on shooting windows (:meth:`Identifier._second_opinion`)
 DRIFT_NRMSE = 0.1
+#: a candidate refused only for a shape or start at a bound is accepted where it replays the record within
+#: ``floor_factor`` x the noise floor and BOUND_RELIEF times better than the model before and every passing
+#: candidate (:func:`vsa_gym.identify.rules.bound_relieved`)
+BOUND_RELIEF = 3.0
 #: a look-alike replaces an earlier effect (:meth:`Identifier._swap`) only if round one fitted it alone and it
 #: validated within SWAP_REACH times that effect's round-one error there
 SWAP_REACH = 4.0
@@ -263,6 +267,10 @@ class Identifier(LookAheads):
                     fm = self._reordered(ad, start, current, name, masks, solo, fm)
                 self._judge(ad, cand, fm, current, floors)
                 fitted.append((fm, cand))
+            rivals = [fm.val_score for fm, c in fitted if c.accepted]
+            for fm, c in fitted:
+                bound_relieved(c, ad.effects[c.name], fm, current, floors, rivals, floor_factor=self.floor_factor,
+                               relief=BOUND_RELIEF, **self._rules())
             passing = [(fm, c) for fm, c in fitted if c.accepted]
             if rnd == first_round:
                 first = list(passing)
@@ -483,9 +491,12 @@ class Identifier(LookAheads):
     def _judge(self, ad: Adapter, cand: Candidate, fm: FittedModel, current: FittedModel,
                floors: dict[str, float]) -> None:
         """:func:`vsa_gym.identify.rules.judge` with this estimator's thresholds."""
-        judge(cand, ad.effects[cand.name], fm, current, floors, margin=self.margin, min_share=self.min_share,
-              min_share_next=self.min_share_next, min_share_fit=self.min_share_fit,
-              min_size_next=self.min_size_next)
+        judge(cand, ad.effects[cand.name], fm, current, floors, **self._rules())
+
+    def _rules(self) -> dict[str, float]:
+        """The acceptance thresholds :func:`vsa_gym.identify.rules.judge` takes."""
+        return {"margin": self.margin, "min_share": self.min_share, "min_share_next": self.min_share_next,
+                "min_share_fit": self.min_share_fit, "min_size_next": self.min_size_next}
 
     def _prune(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray], cands: list[Candidate],
                rnd: int, floor: float) -> FittedModel:

@@ -26,10 +26,10 @@ def undersized(fm: FittedModel, params: Iterable[tuple[str, ParamSpec]], share: 
 
 def judge(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: FittedModel, floors: dict[str, float], *,
           margin: float, min_share: float, min_share_next: float, min_share_fit: float,
-          min_size_next: float) -> None:
+          min_size_next: float, check_bound: bool = True) -> None:
     """Fill ``cand`` (effect ``spec``, fitted as ``fm``) with its scores and evidence against ``current``, and set
     ``cand.accepted`` and ``cand.reason`` by the rules above (``floors``: the noise floor of each record part,
-    as a validation NRMSE)."""
+    as a validation NRMSE); ``check_bound=False`` leaves rule (e) out (see :func:`bound_relieved`)."""
     cand.fitted = True
     cand.val_score, cand.bic = fm.val_score, fm.bic
     cand.values = {k: fm.param(k)[0] for k in spec.keys if k in fm.keys}
@@ -51,7 +51,7 @@ def judge(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: FittedMod
         reasons.append("BIC not improved")
     if not cand.ci_excludes_absent:
         reasons.append("CI includes absent")
-    if cand.at_bound:
+    if cand.at_bound and check_bound:
         reasons.append("parameter at a bound")
     if small:
         reasons.append(f"{', '.join(small)} within the nominal model's tolerance")
@@ -66,4 +66,41 @@ def judge(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: FittedMod
                         "before by less than the noise floor, so only the fit part holds its evidence)")
 
 
-__all__ = ["judge", "undersized"]
+def shape_at_bound(spec: EffectSpec, fm: FittedModel) -> list[str]:
+    """The bound-checked keys of ``spec`` that ``fm`` left at a bound, if none of them is a main parameter (a
+    shape or a start, not the effect's size); else empty."""
+    keys = [(k, p) for k, p in zip(spec.keys, spec.params, strict=True) if p.check_bound and k in fm.at_bound]
+    return [] if any(p.main for _, p in keys) else [k for k, _ in keys]
+
+
+def bound_relieved(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: FittedModel,
+                   floors: dict[str, float], rivals: list[float], *, floor_factor: float, relief: float,
+                   **rules: float) -> bool:
+    """Whether a candidate refused only by rule (e), for a shape or start at a bound, is accepted anyway: it
+    replays the validation part within ``floor_factor`` x the noise floor and at least ``relief`` times better
+    than the model before and than each of ``rivals`` (the validation errors of the candidates that passed).
+    Sets ``cand.accepted`` and ``cand.reason`` where it is.
+
+    A shape pressed to the end of its range is read as an effect standing in for another (EMPS's "gap" with the
+    motor held at its edge validated 2 % better than Coulomb friction), but a stand-in does not replay a record
+    down to its noise while everything else stays several times above: there the range ended short of where
+    the record put the shape (truth case 97012: a backlash whose motor started 0.98 of the half gap from the
+    middle, the range ending at 0.95, replays at 1.8e-5 against a noise floor of 5.1e-5, the compliance that
+    passed at 1.5e-3).  ``rules``: :func:`judge`'s thresholds."""
+    keys = shape_at_bound(spec, fm)
+    if cand.accepted or not keys or not fm.val_score <= floor_factor * floors["validation"]:
+        return False
+    if not all(relief * fm.val_score <= r for r in [current.val_score, *rivals]):
+        return False
+    trial = Candidate(cand.round, cand.name, cand.score)
+    judge(trial, spec, fm, current, floors, check_bound=False, **rules)  # type: ignore[arg-type]
+    if not trial.accepted:
+        return False
+    cand.accepted = True
+    cand.reason = (f"passes all criteria with {', '.join(keys)} at a bound: it replays the record within "
+                   f"{floor_factor:g}x the noise floor ({fm.val_score:.3g} vs {floors['validation']:.3g}), at least "
+                   f"{relief:g}x better than the model before and every candidate that passes")
+    return True
+
+
+__all__ = ["bound_relieved", "judge", "shape_at_bound", "undersized"]
