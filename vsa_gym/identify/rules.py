@@ -4,7 +4,9 @@ A candidate fitted jointly with the effects already accepted is accepted against
 (a) its error drops by ``margin``, (b) it removes a share of that model's misfit above the noise floor
 (:func:`vsa_gym.identify.selection.excess_share`), (c) BIC drops, (d) the CI of its main parameter excludes
 "absent" and the parameter is beyond the nominal model's tolerance, (e) no checked parameter is stuck at a
-bound, and (f) beside an accepted effect its main parameter is at least ``min_size_next`` of its typical size.
+bound (a shape or start at a bound is let through where the fit reaches the noise floor far ahead of every
+alternative: :func:`bound_relieved`), and (f) beside an accepted effect its main parameter is at least
+``min_size_next`` of its typical size.
 (a) and (b) are judged on the validation part unless it cannot tell the two models apart
 (:func:`vsa_gym.identify.fitting.compared`), then on the fit part with the stricter share ``min_share_fit``.
 """
