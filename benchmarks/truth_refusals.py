@@ -5,7 +5,9 @@
 
 Reads the ``results.json`` of :mod:`benchmarks.identify_truth` runs and lists every candidate whose only
 refusal reason is ``--rule`` (after the "on shooting windows" / "from runner-up" prefixes) and whose validation
-error is within ``--within`` times the record's noise floor, with the case's planted and named effects.  This is
+error is within ``--within`` times the record's noise floor, with the case's planted and named effects and the
+best validation error of the candidates that passed in the same round and replay (and its ratio to the refused
+one's).  This is
 how to see what relaxing one rule would reach before changing it (the ninth session's look at case 97012: a
 backlash refused only for its start at the bound, beside the compliance cases where a backlash is refused the
 same way).
@@ -36,6 +38,15 @@ def refused_only_by(case: dict[str, Any], rule: str, within: float, effect: str 
     return out
 
 
+def best_passer(case: dict[str, Any], cand: dict[str, Any]) -> float:
+    """The lowest validation error of the candidates that passed in ``cand``'s round and replay (NaN: none)."""
+    phase = PREFIX.match(cand["reason"]).group(0)  # type: ignore[union-attr]
+    vals = [c["val_score"] for c in case["candidates"] if c is not cand and c["round"] == cand["round"]
+            and PREFIX.match(c["reason"]).group(0) == phase  # type: ignore[union-attr]
+            and PREFIX.sub("", c["reason"]).startswith("passes")]
+    return min(vals, default=float("nan"))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("dirs", nargs="+", help="OUT folders of benchmarks.identify_truth")
@@ -48,10 +59,11 @@ def main(argv: list[str] | None = None) -> int:
         for case in json.loads((Path(d) / "results.json").read_text())["cases"]:
             for c in refused_only_by(case, args.rule, args.within, args.effect):
                 n += 1
-                print(f"{case['seed']:6d} planted {'+'.join(case['effects']) or 'nothing':45s} named "
-                      f"{'+'.join(case['named']) or 'nothing':45s} round {c['round']} {c['name']}: validation "
-                      f"{c['val_score']:.3g}, noise floor {case['noise_floor_nrmse']:.3g}"
-                      f"{'' if case.get('recovered') else '  [case missed]'}")
+                best = best_passer(case, c)
+                print(f"{case['seed']:6d} planted {'+'.join(case['effects']) or 'nothing':40s} named "
+                      f"{'+'.join(case['named']) or 'nothing':40s} round {c['round']} {c['name']}: validation "
+                      f"{c['val_score']:.3g}, noise floor {case['noise_floor_nrmse']:.3g}, best passing "
+                      f"{best:.3g} ({best / c['val_score']:.2f}x){'' if case.get('recovered') else '  [case missed]'}")
     print(f"{n} candidates refused by {args.rule!r} alone within {args.within:g}x the noise floor")
     return 0
 

@@ -66,7 +66,7 @@ def test_swap_reach_reads_each_replacement_against_round_one_of_the_same_replay(
 
 
 def test_truth_refusals_lists_only_candidates_that_one_rule_refused_near_the_noise_floor():
-    from benchmarks.truth_refusals import refused_only_by
+    from benchmarks.truth_refusals import best_passer, refused_only_by
 
     case = {"noise_floor_nrmse": 1e-4, "candidates": [
         {"round": 1, "name": "backlash", "val_score": 2e-4, "reason": "parameter at a bound"},
@@ -78,4 +78,7 @@ def test_truth_refusals_lists_only_candidates_that_one_rule_refused_near_the_noi
     ]}
     got = refused_only_by(case, "parameter at a bound", 3.0, "backlash")
     assert [(c["round"], c["val_score"]) for c in got] == [(1, 2e-4), (2, 2e-4)]
+    case["candidates"].append({"round": 1, "name": "transmission_compliance", "val_score": 6e-4,
+                               "reason": "passes all criteria"})
+    assert best_passer(case, got[0]) == 6e-4 and math.isnan(best_passer(case, got[1]))  # round 2: none passed
     assert len(refused_only_by(case, "parameter at a bound", 3.0, None)) == 3
