@@ -267,6 +267,17 @@ class Identifier(LookAheads):
                     fm = self._reordered(ad, start, current, name, masks, solo, fm)
                 self._judge(ad, cand, fm, current, floors)
                 fitted.append((fm, cand))
+            if (rnd == first_round and not start.effects and not any(c.accepted for _, c in fitted)
+                    and start.val_score > self.floor_factor * floors["validation"]):
+                # nothing passed on a misfit well above the noise floor: before "no effect", the candidates ranked
+                # too low to fit are fitted too (a gap's secant signature can rank it last: fresh case 103015, a
+                # 1.5 mrad backlash in closed loop, ranked below the six fitted; alone it passes, 2 % off)
+                low = set(remaining) - chosen
+                for cand in [c for c in cands if c.round == rnd and c.name in low and not c.fitted]:
+                    fm = self._with(ad, current, cand.name, masks)
+                    self._judge(ad, cand, fm, current, floors)
+                    cand.reason = f"fitted though ranked low (nothing else passed): {cand.reason}"
+                    fitted.append((fm, cand))
             rivals = [fm.val_score for fm, c in fitted if c.accepted]
             for fm, c in fitted:
                 bound_relieved(c, ad.effects[c.name], fm, current, floors, rivals, floor_factor=self.floor_factor,
