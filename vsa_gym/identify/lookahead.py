@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter
-from vsa_gym.identify.fitting import compared, effect_sound, effect_values, without_effect
+from vsa_gym.identify.fitting import compared, effect_sound, effect_values
 from vsa_gym.identify.ranking import rank_candidates
 from vsa_gym.identify.result import Candidate, FittedModel
 from vsa_gym.identify.rules import undersized
@@ -54,35 +54,22 @@ class LookAheads:
         :attr:`n_fit` fitted jointly with it. A pair is accepted by the same rules as a single effect against
         the nominal model (the second effect's evidence as in round one), and also if the first effect's
         evidence stands beside it, both are at least :attr:`min_size_next` of their typical sizes, and the pair
-        validates better by the margin than the first effect alone; of those, the one that validates best. A
-        partner that did not need the first effect and that round one never fitted (low rank) is refitted alone
-        from there and judged as round one judges (fresh case 97021: a mesh loss ranked below the five fitted);
-        where no pair passes, the best such single effect is returned."""
+        validates better by the margin than the first effect alone; of those, the one that validates best.
+        (Until the ninth session a partner round one had not fitted, for its low rank, was also refitted alone
+        here (fresh case 97021, a mesh loss); round one now fits every candidate where nothing passes on such a
+        misfit, so that mesh loss is named there.)"""
         if start.val_score < self.floor_factor * floors["validation"] or not fitted:
             return None
         base, base_cand = min(fitted, key=lambda p: p[0].fit_score)
         if excess_share(base.fit_score, start.fit_score, floors["fit"]) < self.min_share_next:
             return None
         others = [n for n in names if n != base_cand.name]
-        tried_alone = {c.name for _, c in fitted}
         pairs: list[tuple[FittedModel, Candidate]] = []  # accepted pairs
-        singles: list[tuple[FittedModel, Candidate]] = []  # accepted partners refitted alone
         for name, score in rank_candidates(ad, base, others, masks["fit"])[:self.n_fit]:
             fm = self._with(ad, base, name, masks)
             cand = Candidate(rnd, name, score)
             self._judge(ad, cand, fm, start, floors)
             base_sound = effect_sound(ad.effects[base_cand.name], fm)
-            if cand.accepted and name not in tried_alone and not base_sound:
-                # the partner carries it all and round one never fitted it alone (low rank): refitted from here
-                # without the first effect, it is judged as round one would have judged it
-                alone = self._refit(ad, without_effect(fm, base_cand.name), masks)
-                solo = Candidate(rnd, name, score)
-                self._judge(ad, solo, alone, start, floors)
-                solo.reason = (f"fitted alone from its fit beside {base_cand.name}, which it did not need (round one "
-                               f"did not fit it: low rank): {solo.reason}")
-                cands.append(solo)
-                if solo.accepted:
-                    singles.append((alone, solo))
             minor = undersized(fm, [ad.effects[e].main_param for e in fm.effects], self.min_size_next)
             s_pair, s_base, part = compared(fm, base, floors["validation"])
             reasons = [] if cand.accepted else [cand.reason]
@@ -98,20 +85,14 @@ class LookAheads:
             cands.append(cand)
             if cand.accepted:
                 pairs.append((fm, cand))
-        if not pairs and not singles:
+        if not pairs:
             return None
-        # the pair that validates best, else the single that does; every other accepted one stands down
-        fm, cand = min(pairs or singles, key=lambda p: p[0].val_score)
-        for _, c in singles:
-            if c is not cand:
-                c.accepted = False
-                c.reason += "; a pair passes" if pairs else "; another validates better"
+        # the pair that validates best; every other accepted one stands down
+        fm, cand = min(pairs, key=lambda p: p[0].val_score)
         for _, c in pairs:
             if c is not cand:
                 c.accepted = False
                 c.reason += "; another pair validates better"
-        if not pairs:
-            return fm
         base_cand.reason += f"; accepted together with {cand.name} (validation {fm.val_score:.4g})"
         cands.append(Candidate(rnd, base_cand.name, float("nan"), True, fm.val_score, fm.bic, accepted=True,
                                reason=f"passes only together with {cand.name} (validation {fm.val_score:.4g} vs "
