@@ -20,8 +20,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from benchmarks.truth_compare import WINDOWS, phase
+
 REPLACES = re.compile(r"replaces (\w+) beside (\w+)")
-WINDOWS = "on shooting windows: "
 
 
 def replacements(case: dict[str, Any]) -> list[tuple[str, str, float, float, bool]]:
@@ -33,10 +34,9 @@ def replacements(case: dict[str, Any]) -> list[tuple[str, str, float, float, boo
         m = REPLACES.search(c["reason"])
         if not m:
             continue
-        windows = c["reason"].startswith(WINDOWS)
+        main_line = WINDOWS if c["reason"].startswith(WINDOWS) else ""  # round one of the same replay, no branch
         alone = {k["name"]: k["val_score"] for k in cands[:i]
-                 if k["round"] == 1 and k["reason"].startswith(WINDOWS) == windows
-                 and "from runner-up" not in k["reason"] and k.get("val_score") is not None}
+                 if k["round"] == 1 and phase(k["reason"]) == main_line and k.get("val_score") is not None}
         old, new = m.group(1), c["name"]
         out.append((old, new, float(alone.get(old, math.nan)), float(alone.get(new, math.nan)), bool(c["accepted"])))
     return out

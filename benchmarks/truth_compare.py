@@ -13,9 +13,26 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from pathlib import Path
 from typing import Any
+
+#: what a candidate's reason says before its own words: the selection on shooting windows ran it, or the branch
+#: from round one's runner-up did (``Identifier._second_opinion``, ``Identifier._runner_up``)
+WINDOWS = "on shooting windows: "
+PREFIX = re.compile(r"^(on shooting windows: )?(from runner-up \w+: )?")
+
+
+def phase(reason: str) -> str:
+    """The replay and branch a candidate belongs to: its reason's prefix (empty: the full replay's main line)."""
+    m = PREFIX.match(reason)
+    return m.group(0) if m else ""
+
+
+def bare(reason: str) -> str:
+    """A candidate's reason without the prefix of :func:`phase`."""
+    return reason[len(phase(reason)):]
 
 
 def _cases(folder: str) -> dict[int, dict[str, Any]]:
@@ -50,6 +67,8 @@ def compare(old: dict[int, dict[str, Any]], new: dict[int, dict[str, Any]]) -> l
     lines.append(f"time new / old per case, median: all {_median(list(ratio.values())):.2f}; the {len(more)} cases "
                  f"that fitted more candidates {_median([ratio[s] for s in more if s in ratio]):.2f}; the other "
                  f"{len(rest)} {_median([ratio[s] for s in rest]):.2f}")
+    if more:
+        lines.append(f"cases that fitted more candidates: {', '.join(map(str, more))}")
     return lines
 
 

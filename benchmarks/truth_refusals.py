@@ -17,12 +17,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 from pathlib import Path
 from typing import Any
 
-PREFIX = re.compile(r"^(on shooting windows: )?(from runner-up \w+: )?")
+from benchmarks.truth_compare import bare, phase
 
 
 def refused_only_by(case: dict[str, Any], rule: str, within: float, effect: str | None) -> list[dict[str, Any]]:
@@ -30,9 +29,8 @@ def refused_only_by(case: dict[str, Any], rule: str, within: float, effect: str 
     floor = case.get("noise_floor_nrmse") or 0.0
     out = []
     for c in case["candidates"]:
-        reason = PREFIX.sub("", c["reason"])
         val = c.get("val_score")
-        if (reason == rule and (effect is None or c["name"] == effect) and val is not None and val == val
+        if (bare(c["reason"]) == rule and (effect is None or c["name"] == effect) and val is not None and val == val
                 and val <= within * floor):
             out.append(c)
     return out
@@ -40,10 +38,8 @@ def refused_only_by(case: dict[str, Any], rule: str, within: float, effect: str 
 
 def best_passer(case: dict[str, Any], cand: dict[str, Any]) -> float:
     """The lowest validation error of the candidates that passed in ``cand``'s round and replay (NaN: none)."""
-    phase = PREFIX.match(cand["reason"]).group(0)  # type: ignore[union-attr]
     vals = [c["val_score"] for c in case["candidates"] if c is not cand and c["round"] == cand["round"]
-            and PREFIX.match(c["reason"]).group(0) == phase  # type: ignore[union-attr]
-            and PREFIX.sub("", c["reason"]).startswith("passes")]
+            and phase(c["reason"]) == phase(cand["reason"]) and bare(c["reason"]).startswith("passes")]
     return min(vals, default=float("nan"))
 
 

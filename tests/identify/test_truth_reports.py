@@ -26,6 +26,7 @@ def test_compare_names_changed_cases_and_splits_the_time_ratio():
     text = "\n".join(compare(old, new))
     assert "changed: 1" in text and "1 planted coulomb_friction: named viscous_friction (recovered False)" in text
     assert "the 1 cases that fitted more candidates 3.00; the other 1 1.20" in text
+    assert "cases that fitted more candidates: 1" in text
 
 
 def test_join_excludes_the_given_case_seeds(tmp_path):

@@ -9,8 +9,8 @@ Forward selection commits to one effect at a time, and round one can mislead it 
   friction) and nothing added to it removes the rest: :meth:`LookAheads._runner_up` runs the later rounds
   again from round one's runner-up.
 
-Both use the estimator's own fits and rules (``Identifier._with``, ``_judge``, ``_refit``, ``_prune``,
-``_forward``): they are methods of it, kept here so that the selection's main loop stays readable.
+Both use the estimator's own fits and rules (``Identifier._with``, ``_judge``, ``_prune``, ``_forward``): they
+are methods of it, kept here so that the selection's main loop stays readable.
 """
 
 from __future__ import annotations
