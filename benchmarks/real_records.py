@@ -129,6 +129,15 @@ def run_ced() -> dict:
             "params": res.final.theta(), "rms": scores, "oracle": ced_joint_oracle(res, train, tests)}
 
 
+def standing(ours: float, published: dict[str, float]) -> str:
+    """Where ``ours`` stands among the ``published`` rows (lower is better): the rows below it, by name."""
+    below = sorted((v, k) for k, v in published.items() if v < ours)
+    if not below:
+        return f"{ours:.3g} is below every published row"
+    return (f"{ours:.3g} is below {len(published) - len(below)} of the {len(published)} published rows; "
+            f"below it: {', '.join(f'{k} {v:g}' for v, k in below)}")
+
+
 def report(emps: dict, ced: dict | None) -> str:
     eff = " + ".join(emps["effects"]) or "nothing"
     r = emps["rms_mm"]["test"]
@@ -138,6 +147,7 @@ def report(emps: dict, ced: dict | None) -> str:
              f"| **identified: + {eff} (this workbench)** | **{r['identified']:.2f}** |",
              f"| providers' symmetric IDIM-LS model, simulated (data README) | {EMPS_PROVIDERS} |"]
     lines += [f"| {k} (Champneys et al. 2024) | {v:g} |" for k, v in EMPS_PUBLISHED.items()]
+    lines += ["", f"Standing: {standing(r['identified'], EMPS_PUBLISHED)}."]
     lines += ["", f"Training record, same replay: nominal {emps['rms_mm']['train']['nominal']:.2f} mm, identified "
               f"{emps['rms_mm']['train']['identified']:.2f} mm.", "",
               "### EMPS diagnosis: friction at matched speeds (constant-speed stretches, force = gtau * vir)", "",
@@ -163,6 +173,9 @@ def report(emps: dict, ced: dict | None) -> str:
                   f"| **identified: + {eff} (this workbench)** | **{c[1]['identified']:.3f}** | "
                   f"**{c[2]['identified']:.3f}** |"]
         lines += [f"| {k} (Champneys et al. 2024) | {a:g} | {b:g} |" for k, (a, b) in CED_PUBLISHED.items()]
+        for i in (1, 2):
+            row = {k: v[i - 1] for k, v in CED_PUBLISHED.items()}
+            lines += ["", f"Standing on test {i}: {standing(c[i]['identified'], row)}."]
         o = ced["oracle"]
         lines += ["", "### CED diagnosis: the identified model refitted on both test parts at once (oracle, not a "
                   "result)", "", f"Test RMS: test 1 {o['test_rms'][1]:.3f}, test 2 {o['test_rms'][2]:.3f}. "
