@@ -2,10 +2,12 @@
 
 The simulator shares no code with the fitted drive model: exact stiction, L/R or current-loop
 amplifiers, quantised encoders.  The full case set is ``python -m benchmarks.identify_truth``
-(docs/identification.md).  These are two cases of its *tuning* set (base seed 20250, the set the
+(docs/identification.md).  The first two are cases of its *tuning* set (base seed 20250, the set the
 selection thresholds were chosen on): CI-sized regression checks that the CLI path names a planted
-effect with its magnitude and keeps a nominal record clean, not evidence of recovery rates, which
-come from the held-out sets (``--seed 11``, ``--seed 7``).
+effect with its magnitude and keeps a nominal record clean.  The others are single cases of later sets
+(``seed * 1000 + index``), each the case a selection rule was written on, read before the rule existed:
+regression checks of those rules, not evidence of recovery rates, which come from the fresh sets
+(docs/identification.md gives the ``--join`` command).
 """
 
 from __future__ import annotations
@@ -61,8 +63,8 @@ def test_nominal_truth_record_names_nothing(tmp_path):
     assert res["replay"]
 
 
-# Two cases of the held-out set of base seed 7 and 11 (``seed * 1000 + index``), read while the rules they test
-# were written (docs/identification.md, "What the independent records taught"): regression checks, not rates.
+# Cases of the sets of later base seeds (``seed * 1000 + index``), each read while the rule it tests was written
+# (docs/identification.md, "What the independent records taught"): regression checks, not rates.
 
 
 def test_exponential_stribeck_decay_is_fitted_with_its_shape(tmp_path):
