@@ -83,3 +83,27 @@ def test_truth_refusals_lists_only_candidates_that_one_rule_refused_near_the_noi
                                "reason": "passes all criteria"})
     assert best_passer(case, got[0]) == 6e-4 and math.isnan(best_passer(case, got[1]))  # round 2: none passed
     assert len(refused_only_by(case, "parameter at a bound", 3.0, None)) == 3
+
+
+def test_polish_reach_finds_a_later_round_without_a_passer_whose_best_fit_beat_the_model_before():
+    from benchmarks.polish_reach import reachable
+
+    def cand(rnd: int, name: str, val: float, reason: str) -> dict:
+        return {"round": rnd, "name": name, "val_score": val, "reason": reason}
+
+    before = [cand(1, "stribeck_friction", 0.02, "passes all criteria"),
+              cand(1, "coulomb_friction", 0.03, "passes, but another candidate validates better")]
+    beaten = cand(2, "coulomb_friction", 0.001, "parameter at a bound")
+    assert reachable({"candidates": [*before, beaten]})
+    assert not reachable({"candidates": [*before, cand(2, "coulomb_friction", 0.05, "parameter at a bound")]})
+    # a round with a passer is the old rule's (the best passer's refit), not the polish's
+    assert not reachable({"candidates": [*before, beaten, cand(2, "viscous_friction", 0.01, "passes all criteria")]})
+    # a runner-up's branch starts from that runner-up's own round-one fit
+    branch = cand(2, "viscous_friction", 0.025, "from runner-up coulomb_friction: CI includes absent")
+    assert reachable({"candidates": [*before, branch]})
+    assert not reachable({"candidates": [before[0], cand(1, "coulomb_friction", 0.02, "passes, but ..."), branch]})
+    # each replay on its own: a round on shooting windows is read against round one on the windows
+    windowed = cand(2, "hysteresis", 0.001, "on shooting windows: CI includes absent")
+    assert not reachable({"candidates": [*before, windowed]})
+    assert reachable({"candidates": [*before, cand(1, "x", 0.002, "on shooting windows: passes all criteria"),
+                                     windowed]})

@@ -300,7 +300,7 @@ class Identifier(LookAheads):
                 # they validate as well (truth case 127006: a near-exponential Stribeck decay fitted alone with
                 # F_s 34 % high, 0.0192 at a noise floor of 0.00024; beside a Coulomb friction pressed to zero,
                 # 0.00024 and within 0.1 %; case 127004: 26 % high, then 2 %)
-                tried = [(fm, c) for fm, c in fitted if c.fitted and np.isfinite(fm.val_score)]
+                tried = [(fm, c) for fm, c in fitted if np.isfinite(fm.val_score)]
                 if current.effects and tried:
                     fm, c = min(tried, key=lambda p: p[0].val_score)
                     polished = self._unneeded(ad, current, fm, c, cands, rnd, masks, floors["validation"])
@@ -340,7 +340,8 @@ class Identifier(LookAheads):
                   rnd: int, masks: dict[str, np.ndarray], floor: float) -> FittedModel | None:
         """``current``'s effects refitted from ``fm`` (``current`` plus ``cand``) without ``cand``, where they
         validate as well as ``fm`` (within the margin): the joint fit moved them to a better optimum and the
-        newcomer added nothing of its own.  Else None.
+        newcomer added nothing of its own.  Else None.  Asked of the round's best passer, and, where none
+        passed, of its best-validating fit (:meth:`_forward`).
 
         A joint refit starts the earlier effects where they stood; fitted the other way round
         (:meth:`_reordered`) or beside a newcomer that takes part of their work for a while, they can reach a
