@@ -85,8 +85,8 @@ def test_truth_refusals_lists_only_candidates_that_one_rule_refused_near_the_noi
     assert len(refused_only_by(case, "parameter at a bound", 3.0, None)) == 3
 
 
-def test_polish_reach_finds_a_later_round_without_a_passer_whose_best_fit_beat_the_model_before():
-    from benchmarks.polish_reach import reachable
+def test_rule_reach_polish_finds_a_later_round_without_a_passer_whose_best_fit_beat_the_model_before():
+    from benchmarks.rule_reach import reachable
 
     def cand(rnd: int, name: str, val: float, reason: str) -> dict:
         return {"round": rnd, "name": name, "val_score": val, "reason": reason}
@@ -107,3 +107,16 @@ def test_polish_reach_finds_a_later_round_without_a_passer_whose_best_fit_beat_t
     assert not reachable({"candidates": [*before, windowed]})
     assert reachable({"candidates": [*before, cand(1, "x", 0.002, "on shooting windows: passes all criteria"),
                                      windowed]})
+
+
+def test_rule_reach_low_rank_lists_cases_whose_round_one_had_no_passer_in_some_replay():
+    from benchmarks.rule_reach import round_one_without_passer
+
+    passed = {"round": 1, "name": "coulomb_friction", "val_score": 0.1, "reason": "passes all criteria",
+              "accepted": True}
+    refused = {"round": 1, "name": "backlash", "val_score": 0.5, "reason": "CI includes absent", "accepted": False}
+    windows = {**refused, "reason": "on shooting windows: CI includes absent"}
+    branch = {**refused, "round": 1, "reason": "from runner-up hysteresis: CI includes absent"}
+    assert round_one_without_passer({"candidates": [refused]})
+    assert not round_one_without_passer({"candidates": [passed, refused, branch]})
+    assert round_one_without_passer({"candidates": [passed, refused, windows]})
