@@ -50,6 +50,7 @@ from agents.common import (
     write_json,
 )
 from agents.features import FEATURE_CLASS, feature_config, feature_policy
+from agents.hold import HOLD_CLASS, hold_config, hold_policy
 from agents.residual import RESIDUAL_CLASS, SETPOINT_CLASS, residual_config, residual_policy
 
 REWARD_KWARGS: dict[str, frozenset[str]] = {
@@ -199,6 +200,8 @@ def wrapped_policy(agent: Any, vec_env_wrapper: Any) -> Any:
             factory = residual_policy(None, residual_config([{path: kw}]) or {}, agent_factory=factory)
         elif path == FEATURE_CLASS:
             factory = feature_policy(factory, kw)
+        elif path == HOLD_CLASS:
+            factory = hold_policy(factory, kw)
         else:
             raise ValueError(f"agents.evaluate cannot rebuild the vec_env_wrapper {path!r} as a policy")
     return factory
@@ -230,6 +233,7 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     result["agent"] = {"model": str(model_path), "algo": algo or algo_of_model(model_path),
                        "vecnormalize": str(vn_path), "seeds": seeds,
                        "env_kwargs": kw, "residual": residual, "features": feature_config(wrappers),
+                       "hold": hold_config(wrappers),
                        "reward": reward,
                        "training_reward_kwargs": dropped}
     return result

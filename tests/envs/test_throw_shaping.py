@@ -54,3 +54,19 @@ def test_shaping_arguments_are_checked() -> None:
         gym.make(THROW, shaping=-1.0)
     with pytest.raises(ValueError, match="shaping_gamma"):
         gym.make(THROW, shaping_gamma=0.0)
+
+
+def test_pushing_hard_spends_the_budget_before_the_release() -> None:
+    """Why random exploration rarely releases (docs/agents.md, "Throw with an action hold"): a constant full frame
+    voltage spends the 5 J budget, the drives switch off and the bar never reaches the release angle; half of it
+    releases."""
+    for level, releases in ((1.0, False), (0.5, True)):
+        env = gym.make(THROW)
+        env.reset(seed=0)
+        for _ in range(500):
+            _, _, term, trunc, info = env.step(np.array([0.0, level], dtype=np.float32))
+            if term or trunc:
+                break
+        assert bool(info["released"]) == releases
+        if not releases:
+            assert trunc and not info["drive_enabled"] and info["margin_energy"] <= 0.0
