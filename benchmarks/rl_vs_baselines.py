@@ -233,14 +233,18 @@ def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = Non
 
 
 def feature_note(algo: str, env_id: str, hyperparams: str | Path | None = None) -> str:
-    """``"; observes the leaky integral of body_accel"`` when the hyperparameters add observation features."""
+    """``"; observes the leaky integral of body_accel"`` when the hyperparameters add observation features, and
+    ``"; decides every 25 control steps"`` when they hold the agent's actions (:mod:`agents.hold`)."""
     from agents.common import read_hyperparams
     from agents.features import feature_config
+    from agents.hold import hold_config
 
-    cfg = feature_config(read_hyperparams(algo, env_id, hyperparams).get("vec_env_wrapper"))
-    if cfg is None:
-        return ""
-    return f"; observes the leaky integral of {', '.join(cfg.get('channels', ['body_accel']))}"
+    wrappers = read_hyperparams(algo, env_id, hyperparams).get("vec_env_wrapper")
+    cfg, hold = feature_config(wrappers), hold_config(wrappers)
+    note = "" if cfg is None else f"; observes the leaky integral of {', '.join(cfg.get('channels', ['body_accel']))}"
+    if hold is not None:
+        note += f"; decides every {int(hold.get('steps', 10))} control steps"
+    return note
 
 
 def reward_note(reward_kw: dict[str, Any]) -> str:

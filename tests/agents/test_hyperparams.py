@@ -36,15 +36,17 @@ def test_rl_zoo3_reads_our_yaml(tmp_path: Path, algo: str, env_id: str) -> None:
     assert env_wrapper is None and callbacks == []
     if raw.get("vec_env_wrapper") is None:
         assert vec_wrapper is None
-    else:  # rl-zoo3 builds our observation-feature wrapper on its own DummyVecEnv
+    else:  # rl-zoo3 builds our observation-feature or action-hold wrapper on its own DummyVecEnv
         from stable_baselines3.common.vec_env import DummyVecEnv
 
         from agents.features import LeakyIntegralVecEnv
+        from agents.hold import ActionHoldVecEnv
 
         base = gym.make(env_id, **zoo.env_kwargs)
         wrapped = vec_wrapper(DummyVecEnv([lambda: gym.make(env_id, **zoo.env_kwargs)]))
-        assert isinstance(wrapped, LeakyIntegralVecEnv)
-        assert wrapped.observation_space.shape[0] == base.observation_space.shape[0] + len(wrapped.channels)
+        assert isinstance(wrapped, (LeakyIntegralVecEnv, ActionHoldVecEnv))
+        extra = len(wrapped.channels) if isinstance(wrapped, LeakyIntegralVecEnv) else 0
+        assert wrapped.observation_space.shape[0] == base.observation_space.shape[0] + extra
     assert zoo.normalize is True  # rl-zoo3 wraps in VecNormalize, as we do
 
     ours = process_hyperparams(read_hyperparams(algo, env_id), n_actions=2)
