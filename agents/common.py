@@ -243,6 +243,17 @@ def wrap_vec_env(venv: Any, spec: Any) -> Any:
     return venv
 
 
+def wrapper_kwargs(spec: Any, class_path: str) -> dict[str, Any] | None:
+    """The kwargs of ``class_path`` in an rl-zoo3 ``vec_env_wrapper`` entry (as :func:`wrap_vec_env` reads it);
+    ``None`` where the entry does not name that class."""
+    for item in spec if isinstance(spec, list) else [spec]:
+        if isinstance(item, Mapping) and class_path in item:
+            return dict(item[class_path] or {})
+        if item == class_path:
+            return {}
+    return None
+
+
 def make_train_env(env_id: str, n_envs: int, seed: int, env_kwargs: Mapping[str, Any] | None = None,
                    normalize: Mapping[str, Any] | None = None, monitor_file: str | None = None,
                    vecnormalize_path: str | os.PathLike[str] | None = None, training: bool = True,

@@ -28,6 +28,8 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
+from agents.common import wrapper_kwargs
+
 FEATURE_CLASS = "agents.features.LeakyIntegralVecEnv"
 
 
@@ -137,13 +139,7 @@ class FeaturePolicy:
 
 def feature_config(vec_env_wrapper: Any) -> dict[str, Any] | None:
     """The ``LeakyIntegralVecEnv`` kwargs in a ``vec_env_wrapper`` entry (``None``: no feature wrapper)."""
-    items = vec_env_wrapper if isinstance(vec_env_wrapper, list) else [vec_env_wrapper]
-    for it in items:
-        if isinstance(it, Mapping) and FEATURE_CLASS in it:
-            return dict(it[FEATURE_CLASS] or {})
-        if it == FEATURE_CLASS:
-            return {}
-    return None
+    return wrapper_kwargs(vec_env_wrapper, FEATURE_CLASS)
 
 
 def feature_policy(agent_factory: Callable[[Any], Any], config: Mapping[str, Any]) -> Callable[[Any], Any]:

@@ -26,6 +26,8 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
+from agents.common import wrapper_kwargs
+
 HOLD_CLASS = "agents.hold.ActionHoldVecEnv"
 
 
@@ -102,13 +104,7 @@ def hold_policy(agent_factory: Callable[[Any], Any], config: Mapping[str, Any]) 
 
 def hold_config(vec_env_wrapper: Any) -> dict[str, Any] | None:
     """The ``ActionHoldVecEnv`` kwargs in a ``vec_env_wrapper`` entry (``None``: no hold)."""
-    items = vec_env_wrapper if isinstance(vec_env_wrapper, list) else [vec_env_wrapper]
-    for it in items:
-        if isinstance(it, Mapping) and HOLD_CLASS in it:
-            return dict(it[HOLD_CLASS] or {})
-        if it == HOLD_CLASS:
-            return {}
-    return None
+    return wrapper_kwargs(vec_env_wrapper, HOLD_CLASS)
 
 
 __all__ = ["HOLD_CLASS", "ActionHoldVecEnv", "HoldPolicy", "hold_config", "hold_policy"]
