@@ -29,6 +29,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 from agents.common import wrapper_kwargs
 
 HOLD_CLASS = "agents.hold.ActionHoldVecEnv"
+DEFAULT_STEPS = 10  # control steps per decision where an entry names the wrapper without ``steps``
 
 
 def _steps(value: Any) -> int:
@@ -40,7 +41,7 @@ def _steps(value: Any) -> int:
 class ActionHoldVecEnv(VecEnvWrapper):
     """Each agent action held for ``steps`` control steps of ``venv`` (module docstring)."""
 
-    def __init__(self, venv: VecEnv, steps: int = 10) -> None:
+    def __init__(self, venv: VecEnv, steps: int = DEFAULT_STEPS) -> None:
         self.steps = _steps(steps)
         super().__init__(venv)
         self._actions: np.ndarray | None = None
@@ -98,7 +99,7 @@ class HoldPolicy:
 
 def hold_policy(agent_factory: Callable[[Any], Any], config: Mapping[str, Any]) -> Callable[[Any], Any]:
     """``policy_factory(env)``: the agent built by ``agent_factory(env)`` behind the hold of ``config``."""
-    steps = _steps(config.get("steps", 10))
+    steps = _steps(config.get("steps", DEFAULT_STEPS))
     return lambda env: HoldPolicy(agent_factory(env), steps)
 
 
@@ -107,4 +108,10 @@ def hold_config(vec_env_wrapper: Any) -> dict[str, Any] | None:
     return wrapper_kwargs(vec_env_wrapper, HOLD_CLASS)
 
 
-__all__ = ["HOLD_CLASS", "ActionHoldVecEnv", "HoldPolicy", "hold_config", "hold_policy"]
+def hold_steps(vec_env_wrapper: Any) -> int | None:
+    """Control steps per agent decision of a ``vec_env_wrapper`` entry (``None``: no hold, one per step)."""
+    cfg = hold_config(vec_env_wrapper)
+    return None if cfg is None else _steps(cfg.get("steps", DEFAULT_STEPS))
+
+
+__all__ = ["DEFAULT_STEPS", "HOLD_CLASS", "ActionHoldVecEnv", "HoldPolicy", "hold_config", "hold_policy", "hold_steps"]

@@ -44,6 +44,8 @@ import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvStepReturn
 
+from agents.common import wrapper_kwargs
+
 RESIDUAL_CLASS = "agents.residual.ResidualVecEnv"
 SETPOINT_CLASS = "agents.residual.SetpointResidualVecEnv"
 CURRENT_MODE_BASELINES = frozenset({"cascade", "skyhook", "passive"})
@@ -81,14 +83,11 @@ def residual_params(baseline: str, scale: float) -> dict[str, Any]:
 def residual_config(vec_env_wrapper: Any) -> dict[str, Any] | None:
     """The ``ResidualVecEnv`` or ``SetpointResidualVecEnv`` kwargs in a ``vec_env_wrapper`` hyperparameter entry
     (``None``: not residual); a setpoint entry has ``"form": "setpoint"``."""
-    items = vec_env_wrapper if isinstance(vec_env_wrapper, list) else [vec_env_wrapper]
-    for it in items:
-        for cls, form in ((RESIDUAL_CLASS, "action"), (SETPOINT_CLASS, "setpoint")):
-            if isinstance(it, Mapping) and cls in it:
-                return {**dict(it[cls] or {}), **({"form": form} if form == "setpoint" else {})}
-            if it == cls:
-                return {"form": form} if form == "setpoint" else {}
-    return None
+    kw = wrapper_kwargs(vec_env_wrapper, RESIDUAL_CLASS)
+    if kw is not None:
+        return kw
+    kw = wrapper_kwargs(vec_env_wrapper, SETPOINT_CLASS)
+    return None if kw is None else {**kw, "form": "setpoint"}
 
 
 def _task_env(venv: VecEnv) -> Any:

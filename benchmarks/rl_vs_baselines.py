@@ -232,19 +232,17 @@ def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = Non
     return split_reward_kwargs(env_id, eval_zoo_expr(kw) if isinstance(kw, str) else dict(kw))[1]
 
 
-def feature_note(algo: str, env_id: str, hyperparams: str | Path | None = None) -> str:
+def wrapper_note(algo: str, env_id: str, hyperparams: str | Path | None = None) -> str:
     """``"; observes the leaky integral of body_accel"`` when the hyperparameters add observation features, and
     ``"; decides every 25 control steps"`` when they hold the agent's actions (:mod:`agents.hold`)."""
     from agents.common import read_hyperparams
     from agents.features import feature_config
-    from agents.hold import hold_config
+    from agents.hold import hold_steps
 
     wrappers = read_hyperparams(algo, env_id, hyperparams).get("vec_env_wrapper")
-    cfg, hold = feature_config(wrappers), hold_config(wrappers)
+    cfg, steps = feature_config(wrappers), hold_steps(wrappers)
     note = "" if cfg is None else f"; observes the leaky integral of {', '.join(cfg.get('channels', ['body_accel']))}"
-    if hold is not None:
-        note += f"; decides every {int(hold.get('steps', 10))} control steps"
-    return note
+    return note + ("" if steps is None else f"; decides every {steps} control steps")
 
 
 def reward_note(reward_kw: dict[str, Any]) -> str:
@@ -411,7 +409,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             if rows:
                 k = steps_for[env_id] // 1000
                 hp_file = RESIDUAL_HYPERPARAMS if variant == "residual" else None
-                note = (feature_note(a.algo, env_id, hp_file)
+                note = (wrapper_note(a.algo, env_id, hp_file)
                         + reward_note(training_reward(a.algo, env_id, hp_file)))
                 name = (f"{a.algo.upper()} ({k}k steps{note})" if variant == "pure" else
                         f"residual {a.algo.upper()} over {res_envs[env_id]} ({k}k steps{note}; not a pure agent)")

@@ -15,7 +15,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 from agents.common import checkpoints, env_name, read_hyperparams, vecnormalize_for
 from agents.evaluate import evaluate_agent, load_agent
 from agents.evaluate import main as evaluate_main
-from agents.hold import hold_config
+from agents.hold import hold_steps
 from agents.train import train
 from tests.agents.conftest import EPISODE, tiny
 from vsa_gym.envs import ENV_IDS
@@ -49,8 +49,8 @@ def test_ppo_smoke_every_env(tmp_path: Path, env_id: str) -> None:
     assert list(evals["timesteps"]) == [256, 512]
     # held-out evaluation episodes of the training length, counted in agent decisions (k control steps each where
     # the entry holds the actions, agents.hold)
-    hold = hold_config(read_hyperparams("ppo", env_id).get("vec_env_wrapper"))
-    decisions = EPISODE if hold is None else -(-EPISODE // int(hold.get("steps", 10)))
+    steps = hold_steps(read_hyperparams("ppo", env_id).get("vec_env_wrapper"))
+    decisions = EPISODE if steps is None else -(-EPISODE // steps)
     assert np.all(evals["ep_lengths"] == decisions)
 
     model = save / f"{env_name(env_id)}.zip"
