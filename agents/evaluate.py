@@ -55,7 +55,8 @@ from agents.residual import RESIDUAL_CLASS, SETPOINT_CLASS, residual_config, res
 
 REWARD_KWARGS: dict[str, frozenset[str]] = {
     "vsa_gym/ELPAS-ForceTracking-v0": frozenset({"w_force", "w_energy", "force_scale", "failure_penalty",
-                                                 "failure_rate", "episode_steps", "regen"}),
+                                                 "failure_rate", "episode_steps", "regen", "w_stop",
+                                                 "stop_width"}),
     "vsa_gym/ELPAS-QuarterCar-v0": frozenset({"w_comfort", "w_travel", "w_tyre", "w_energy", "accel_scale",
                                               "travel_soft", "failure_penalty", "failure_rate", "episode_steps",
                                               "regen"}),

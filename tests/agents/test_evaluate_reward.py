@@ -19,7 +19,7 @@ OTHER: dict[str, Any] = {"w_force": 3.0, "w_energy": 0.05, "force_scale": 250.0,
                          "regen": "count", "w_comfort": 3.0, "w_travel": 3.0, "w_tyre": 3.0, "accel_scale": 0.5,
                          "travel_soft": 0.5, "w_position": 3.0, "w_stiffness": 3.0, "position_scale": 0.1,
                          "log_stiffness_scale": 0.5, "failure_rate": 50.0, "episode_steps": 1000, "shaping": 1.0,
-                         "shaping_gamma": 0.9}
+                         "shaping_gamma": 0.9, "w_stop": 5.0, "stop_width": 1.5}
 QC = "vsa_gym/ELPAS-QuarterCar-v0"
 
 

@@ -89,6 +89,25 @@ def failure_charge(penalty: Any, rate: Any, steps_done: Any, episode_steps: Any)
     return -(penalty + rate * np.maximum(episode_steps - steps_done, 0.0))
 
 
+def check_stop_barrier(w_stop: float, stop_width: float) -> tuple[float, float]:
+    """Checked ``(w_stop, stop_width)`` of :func:`stop_barrier`: both finite, ``w_stop >= 0``, ``stop_width > 0``."""
+    if not (np.isfinite(w_stop) and w_stop >= 0):
+        raise ValueError(f"w_stop must be a finite weight >= 0, got {w_stop}")
+    if not (np.isfinite(stop_width) and stop_width > 0):
+        raise ValueError(f"stop_width must be a finite margin > 0 (the constraint's unit), got {stop_width}")
+    return float(w_stop), float(stop_width)
+
+
+@register_jitable
+def stop_barrier(margin: float, w_stop: float, stop_width: float) -> float:
+    """``-w_stop max(0, 1 - margin / stop_width)^2``: a cost that grows from 0, ``stop_width`` away from a
+    constraint, to ``w_stop`` at contact (``margin`` <= 0), in the margin's unit.  A training aid: it prices
+    the approach to a stop inside the learner's discount horizon, where the failure at the stop may lie beyond
+    it; the tasks' default weight is 0."""
+    d = 1.0 - margin / stop_width
+    return -w_stop * d * d if d > 0.0 else 0.0
+
+
 def horizon_from_time_limit(max_episode_steps: int | None, kwargs: dict[str, Any]) -> None:
     """A native vector env's time limit is also its task's ``episode_steps`` unless that is given (in place)."""
     if max_episode_steps is not None and kwargs.get("episode_steps") is None:

@@ -41,10 +41,12 @@ from vsa_gym.envs.task import (
     ObsChannel,
     TaskEnv,
     actions_finite,
+    check_stop_barrier,
     failure_charge,
     failure_horizon,
     indent,
     obs_table,
+    stop_barrier,
 )
 from vsa_gym.envs.vector import TaskVectorEnv
 
@@ -54,7 +56,7 @@ ENV_NAME = "ELPAS-ForceTracking-v0"
 class ForceTrackingTask(ElpasTask):
     """Batched logic of :class:`ElpasForceTrackingEnv` (its docstring documents everything)."""
 
-    reward_terms = ("force", "energy", "failure")
+    reward_terms = ("force", "energy", "failure", "stop")
     step_info = (*ENERGY_INFO, "margin_gamma_stop", "margin_i2t", "force_error", "alpha")
     trace_names = ("F_act", "F_ref", "alpha", "gamma", "current", "P_el")
     trace_units = ("N", "N", "rad", "rad", "A", "kW")
@@ -63,6 +65,7 @@ class ForceTrackingTask(ElpasTask):
     def __init__(self, n: int, *, w_force: float = 1.0, w_energy: float = 1e-3, force_scale: float = 500.0,
                  force_range: tuple[float, float] = (1900.0, 3200.0), alpha_amplitude: float = np.deg2rad(15.0),
                  failure_penalty: float = 100.0, failure_rate: float = 0.0, episode_steps: int | None = None,
+                 w_stop: float = 0.0, stop_width: float = 0.4,
                  prescribed: tuple[np.ndarray, np.ndarray] | None = None, **kwargs: Any) -> None:
         super().__init__(n, **kwargs)
         #: ``(F_ref, alpha)`` tables ``(n, T + 1)``, one sample per control step, that replace the drawn reference and
@@ -78,6 +81,7 @@ class ForceTrackingTask(ElpasTask):
         self.failure_rate = float(rate)
         self.w_force, self.w_energy = float(w_force), float(w_energy)
         self.force_scale, self.failure_penalty = float(force_scale), float(failure_penalty)
+        self.w_stop, self.stop_width = check_stop_barrier(w_stop, stop_width)
         a_max = float(np.min(self.base_rows[0].cone.alpha_max))
         if not 0.0 <= alpha_amplitude <= a_max:
             raise ValueError(f"alpha_amplitude must lie in [0, alpha_max = {a_max:.4f}] rad, got {alpha_amplitude}")
@@ -88,7 +92,8 @@ class ForceTrackingTask(ElpasTask):
         self.s["f_ref"] = np.zeros(self.n)
         lo, hi = force_range
         self._weights = np.array([self.w_force, self.force_scale, self.w_energy, self.failure_penalty,
-                                  self.failure_rate, float(self.episode_steps), float(prescribed is not None)])
+                                  self.failure_rate, float(self.episode_steps), float(prescribed is not None),
+                                  self.w_stop, self.stop_width])
         self._set_channels(self._common_channels() + [
             ObsChannel("force_ref", "N", float(lo), float(hi), "force reference"),
             ObsChannel("force_err", "N", float(lo) - 6000.0, float(hi), "force_ref - force"),
@@ -154,8 +159,9 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     has ended) and the observation without noise into ``obs[i]``; advances ``t[i]``.
 
     ``drv``: ``s["drive"]``; ``w = [w_force, force_scale, w_energy, failure_penalty, failure_rate,
-    episode_steps, prescribed]``; ``tables``: ``(2, n, T + 1)`` prescribed ``F_ref`` and alpha per control step
-    (read when ``w[6]`` is set); rows of ``out``: ``step_info``, the reward terms, then the ``OUT_*`` tail.
+    episode_steps, prescribed, w_stop, stop_width]``; ``tables``: ``(2, n, T + 1)`` prescribed ``F_ref`` and
+    alpha per control step (read when ``w[6]`` is set); rows of ``out``: ``step_info``, the reward terms, then
+    the ``OUT_*`` tail.
     """
     pi_int, i2t, meas, vel = drv[:, D_PI], drv[:, D_I2T], drv[:, D_MEAS:D_MEAS + 2], drv[:, D_VEL:D_VEL + 2]
     cur, force = drv[:, D_CUR], drv[:, D_FORCE]
@@ -174,10 +180,11 @@ def _force_tracking_row(i: int, a: np.ndarray, x: np.ndarray, P: np.ndarray, cfg
     r_force = -w[0] * (err / w[1]) ** 2
     r_energy = -w[2] * charged / dt
     r_fail = failure_charge(w[3], w[4], np.rint(t_new / dt), w[5]) if fail else 0.0
+    r_stop = stop_barrier(mg, w[7], w[8])
     out[5, i], out[6, i], out[7, i], out[8, i] = mg, mi, err, x[i, em.ALPHA]
-    out[9, i], out[10, i], out[11, i] = r_force, r_energy, r_fail
-    m = 12
-    out[m + OUT_REWARD, i] = 0.0 + r_force + r_energy + r_fail  # the reward: the sum of the terms
+    out[9, i], out[10, i], out[11, i], out[12, i] = r_force, r_energy, r_fail, r_stop
+    m = 13
+    out[m + OUT_REWARD, i] = 0.0 + r_force + r_energy + r_fail + r_stop  # the reward: the sum of the terms
     out[m + OUT_FAIL, i] = 1.0 if fail else 0.0
     out[m + OUT_CLIPPED, i] = 1.0 if clipped else 0.0
     out[m + OUT_F, i] = F
@@ -252,11 +259,19 @@ class ElpasForceTrackingEnv(TaskEnv):
 {_OBS_DOC}
 
     ## Rewards
-    ``reward = force + energy + failure``::
+    ``reward = force + energy + failure + stop``::
 
         force   = -w_force ((F_act - F_ref) / force_scale)^2          (force_scale = 500 N)
         energy  = -w_energy P_el                                        (w_energy = 1e-3 per W)
         failure = -(failure_penalty + failure_rate (episode_steps - k)) on a failure at step k, else 0
+        stop    = -w_stop max(0, 1 - margin_gamma_stop / stop_width)^2   (w_stop = 0: off; stop_width = 0.4 rad)
+
+    ``stop`` is a training aid, off by default (the scored reward has no such term): it prices the approach
+    to the gamma end stop from ``stop_width`` before contact, inside a ``gamma``-0.99 learner's horizon of
+    about 100 steps, where the failure itself may lie several hundred steps ahead (an agent that keeps
+    turning the arm while the force does not follow, at negative alpha, reaches the stop that way;
+    docs/agents.md).  0.4 rad leaves the arm free up to 67 deg, where ``F_act(gamma, 0)`` already passes
+    the top of ``force_range``.
 
     A failure ends the episode.  ``failure_rate`` > 0 also charges every step it skips, up to
     ``episode_steps`` (default: the registered 5000; the native vector env takes its ``max_episode_steps``;
@@ -288,7 +303,7 @@ class ElpasForceTrackingEnv(TaskEnv):
     (``{{"friction.F_c": (0.15, 0.3), ...}}``), ``sensor_noise`` (False | True | scale |
     ``{{"current": A, "force": N}}``), ``regen``, ``render_mode``, ``w_force``, ``w_energy``,
     ``force_scale``, ``force_range``, ``alpha_amplitude``, ``failure_penalty``, ``failure_rate``,
-    ``episode_steps``, ``current_loop``
+    ``episode_steps``, ``w_stop``, ``stop_width`` (rad), ``current_loop``
     (:class:`~vsa_gym.devices.elpas.task.ElpasCurrentLoop`), ``i_nominal``, ``i2t_trip_s``,
     ``velocity_cutoff_hz``, ``parallel_rows`` (vector env: the compiled step's row loop on all cores from 64
     rows; off by default, see docs/performance.md).
