@@ -21,7 +21,9 @@ them with ``-f LOG_FOLDER/residual``.  rl-zoo3's own ``config.yml`` and ``args.y
 
 Seeds: a run with ``--seed S`` seeds the model and the training rows with ``S, S+1, ...``;
 periodic evaluation uses the held-out seeds ``EVAL_SEED_BASE + k`` (the same at every
-evaluation), final metrics ``METRIC_SEED_BASE + k``.  Training never resets with these.
+evaluation), final metrics ``METRIC_SEED_BASE + k``; ``DEV_SEED_BASE + k`` is a development set for choosing
+between settings (``benchmarks.agents_dev``), which neither model selection nor the table's test episodes use.
+Training never resets with these.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "tqc"})
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 EVAL_SEED_BASE = 1_000_000
 METRIC_SEED_BASE = 2_000_000
+DEV_SEED_BASE = 3_000_000
 _CHECKPOINT_RE = re.compile(r"^rl_model_(\d+)_steps\.zip$")
 RESIDUAL_FOLDER = "residual"
 ORDERED_DICT_TAG = "tag:yaml.org,2002:python/object/apply:collections.OrderedDict"

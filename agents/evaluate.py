@@ -254,9 +254,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--episode-steps", type=int, default=None, help="shorter episodes (default: the time limit)")
     ap.add_argument("--reward", choices=REWARD_MODES, default="default",
                     help="return under the environment's default reward (default) or the training reward weights")
+    ap.add_argument("--env-kwargs", type=yaml.safe_load, default=None, metavar="YAML",
+                    help="environment arguments on top of the training ones, e.g. a stress set "
+                         '"{force_range: [2800, 3200]}" or "{sensor_noise: true}"')
     a = ap.parse_args(argv)
+    if a.env_kwargs is not None and not isinstance(a.env_kwargs, Mapping):
+        ap.error(f"--env-kwargs must be a YAML mapping such as '{{force_range: [2800, 3200]}}', got {a.env_kwargs!r}")
     res = evaluate_agent(a.model, a.env, a.episodes, a.seed_base, a.algo, a.vecnormalize, a.episode_steps,
-                         reward=a.reward)
+                         env_kwargs=a.env_kwargs, reward=a.reward)
     if a.json:
         out = json_path(a.model, a.json)
         write_json(out, res)

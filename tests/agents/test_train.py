@@ -83,6 +83,16 @@ def test_off_policy_smoke_and_cli_evaluate(tmp_path: Path, algo: str) -> None:
     assert res["agent"]["algo"] == algo and res["agent"]["vecnormalize"].endswith("rl_model_vecnormalize_400_steps.pkl")
     assert res["metric_value"] == evaluate_agent(save / "rl_model_400_steps.zip", FORCE, 2,
                                                  episode_steps=50)["metric_value"]
+    # --env-kwargs: other conditions (here a stress set at the top of the force range) on top of the training ones
+    stress = tmp_path / "stress.json"
+    assert evaluate_main([str(save / "rl_model_400_steps.zip"), "--env", FORCE, "--episodes", "2",
+                          "--episode-steps", "50", "--json", str(stress),
+                          "--env-kwargs", "{force_range: [3000, 3200]}"]) == 0
+    res2 = json.loads(stress.read_text())
+    assert res2["agent"]["env_kwargs"]["force_range"] == [3000, 3200]
+    assert res2["metric_value"] != res["metric_value"]
+    with pytest.raises(SystemExit):
+        evaluate_main([str(save / "rl_model_400_steps.zip"), "--env", FORCE, "--env-kwargs", "[1, 2]"])
 
 
 class _Crash(BaseCallback):
