@@ -12,11 +12,12 @@ episodes), optionally under other environment arguments (``--env-kwargs``: a str
 reference range, sensor noise, domain randomisation; they apply on top of each agent's training arguments and
 each baseline's own).  ``--models`` takes groups of models separated by ``--`` (one group per setting, e.g. the
 seeds of one probe); each group gets a row with its mean over the models and every model a row of its own.
-Baselines (``benchmarks.rl_vs_baselines.baseline_factories``) are evaluated too unless ``--no-baselines``.
+Baselines (``benchmarks.rl_vs_baselines.baseline_factories``; the quarter car's skyhook also at ``--skyhook-gains``)
+are evaluated too unless ``--no-baselines``.
 
 Per row: the mean return under the environment's default reward, the task's metric, energy, and the episodes
-that ended on a constraint (count, and which ``k``).  A setting is judged here, then the table is remade once
-(docs/agents.md); the test episodes never choose.
+that ended on a constraint (count, which ``k`` and after how many steps).  A setting is judged here, then the
+table is remade once (docs/agents.md); the test episodes never choose.
 """
 
 from __future__ import annotations
@@ -34,10 +35,11 @@ from agents.common import DEV_SEED_BASE, write_json
 
 
 def _summary(name: str, res: Mapping[str, Any]) -> dict[str, Any]:
-    viol = res["per_episode"]["violations"]
+    viol, steps = res["per_episode"]["violations"], res["per_episode"]["steps"]
+    ended = [k for k, v in enumerate(viol) if v]
     return {"policy": name, "return": float(res["return"]), "metric": res["metric"],
             "metric_value": float(res["metric_value"]), "energy_J": float(res["energy_J"]),
-            "ended": [k for k, v in enumerate(viol) if v], "episodes": len(viol)}
+            "ended": ended, "ended_after": [int(steps[k]) for k in ended], "episodes": len(viol)}
 
 
 def evaluate_models(env_id: str, groups: Sequence[Sequence[str]], episodes: int, seed_base: int,
@@ -50,32 +52,36 @@ def evaluate_models(env_id: str, groups: Sequence[Sequence[str]], episodes: int,
         own = [_summary(str(m), evaluate_agent(m, env_id, episodes, seed_base, episode_steps=episode_steps,
                                                env_kwargs=env_kwargs))
                for m in models]
-        rows.append({"policy": f"group {g + 1} ({len(own)} models: mean)", "group": g + 1,
+        rows.append({"policy": f"group {g + 1} ({len(own)} models: mean)", "group": g + 1, "kind": "group",
                      "return": float(np.mean([r["return"] for r in own])), "metric": own[0]["metric"],
                      "metric_value": float(np.mean([r["metric_value"] for r in own])),
                      "energy_J": float(np.mean([r["energy_J"] for r in own])),
                      "ended": [len(r["ended"]) for r in own], "episodes": episodes})
-        rows.extend({**r, "group": g + 1} for r in own)
+        rows.extend({**r, "group": g + 1, "kind": "model"} for r in own)
     return rows
 
 
 def evaluate_baselines(env_id: str, episodes: int, seed_base: int, env_kwargs: Mapping[str, Any] | None,
-                       episode_steps: int | None = None) -> list[dict[str, Any]]:
+                       episode_steps: int | None = None, skyhook_gains: Sequence[float] = ()) -> list[dict[str, Any]]:
     from baselines.metrics import evaluate_policy
     from benchmarks.rl_vs_baselines import baseline_factories
 
     seeds = [seed_base + k for k in range(episodes)]
-    return [_summary(name, evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps,
-                                           env_kwargs={**kw, **dict(env_kwargs or {})}))
-            for name, (factory, kw) in baseline_factories(env_id).items()]
+    rows = []
+    for name, (factory, kw) in baseline_factories(env_id, skyhook_gains).items():
+        res = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps,
+                              env_kwargs={**kw, **dict(env_kwargs or {})})
+        rows.append({**_summary(name, res), "kind": "baseline"})
+    return rows
 
 
 def table(rows: Sequence[Mapping[str, Any]]) -> str:
     lines = ["| policy | return | metric | energy (J) | ended on a constraint |", "|---|---|---|---|---|"]
     for r in rows:
         ended = r["ended"]
-        ended_txt = (f"{sum(ended)} (per model {ended})" if r.get("policy", "").startswith("group")
-                     else f"{len(ended)} of {r['episodes']}" + (f" (k = {ended})" if ended else ""))
+        ended_txt = (f"{sum(ended)} (per model {ended})" if r["kind"] == "group"
+                     else f"{len(ended)} of {r['episodes']}"
+                     + (f" (k = {ended}, after {r['ended_after']} steps)" if ended else ""))
         lines.append(f"| {r['policy']} | {r['return']:.1f} | {r['metric']} {r['metric_value']:.4g} | "
                      f"{r['energy_J']:.1f} | {ended_txt} |")
     return "\n".join(lines)
@@ -101,6 +107,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--env-kwargs", type=yaml.safe_load, default=None, metavar="YAML")
     ap.add_argument("--episode-steps", type=int, default=None, help="shorter episodes (default: the time limit)")
     ap.add_argument("--no-baselines", action="store_true")
+    ap.add_argument("--skyhook-gains", type=float, nargs="*", default=[],
+                    help="quarter car: the skyhook also at these damping gains (N s/m)")
     ap.add_argument("--json", default=None, metavar="FILE")
     argv = list(sys.argv[1:] if argv is None else argv)
     # argparse would take a lone '--' as the end of the options: read the model list by hand
@@ -121,7 +129,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             ap.error(f"--models: {m} is not a file")
     rows = evaluate_models(a.env, split_groups(models), a.episodes, a.seed_base, a.env_kwargs, a.episode_steps)
     if not a.no_baselines:
-        rows += evaluate_baselines(a.env, a.episodes, a.seed_base, a.env_kwargs, a.episode_steps)
+        rows += evaluate_baselines(a.env, a.episodes, a.seed_base, a.env_kwargs, a.episode_steps, a.skyhook_gains)
     print(f"{a.env}: {a.episodes} episodes on seeds {a.seed_base} + k, environment arguments on top: "
           f"{a.env_kwargs or {}}")
     print(table(rows))

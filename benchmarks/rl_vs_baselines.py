@@ -290,9 +290,18 @@ def _per_env(items: Sequence[str], envs: Sequence[str]) -> dict[str, int]:
         short, _, n = it.partition("=")
         match = [e for e in envs if e.split("/")[-1] == short or e == short]
         if not match or not n:
-            raise SystemExit(f"--timesteps-for takes ENV=N with ENV one of {list(envs)}, got {it!r}")
+            raise SystemExit(f"--timesteps-for and --residual-timesteps-for take ENV=N with ENV one of "
+                             f"{list(envs)}, got {it!r}")
         out[match[0]] = int(n)
     return out
+
+
+def budgets(envs: Sequence[str], timesteps: int, timesteps_for: Sequence[str] = (),
+            residual_timesteps_for: Sequence[str] = ()) -> tuple[dict[str, int], dict[str, int]]:
+    """``(pure, residual)`` training budgets per environment: ``timesteps``, then ``--timesteps-for``; the
+    residual agents take the pure budget unless ``--residual-timesteps-for`` names their own."""
+    pure = {e: int(timesteps) for e in envs} | _per_env(timesteps_for, envs)
+    return pure, pure | _per_env(residual_timesteps_for, envs)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -303,6 +312,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--timesteps", type=int, default=30_000, help="training timesteps per agent")
     ap.add_argument("--timesteps-for", nargs="*", default=[], metavar="ENV=N",
                     help="per-environment timesteps, e.g. VsaUT2-Throw-v0=32768 (default: --timesteps)")
+    ap.add_argument("--residual-timesteps-for", nargs="*", default=[], metavar="ENV=N",
+                    help="per-environment timesteps of the residual agents (default: the pure agents' budget)")
     ap.add_argument("--residual", action="store_true",
                     help="also train residual agents (agents/hyperparams/ppo_residual.yml) where an entry exists")
     ap.add_argument("--episodes", type=int, default=5, help="evaluation episodes (held-out seeds)")
@@ -337,7 +348,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     results_path = docs / "agents_results.json"
     previous = read_json(results_path, {}) or {}
     cache: dict[str, Any] = previous.get("baseline_cache", {}) if a.reuse_baselines else {}
-    steps_for = {e: a.timesteps for e in a.envs} | _per_env(a.timesteps_for, a.envs)
+    steps_for, res_steps_for = budgets(a.envs, a.timesteps, a.timesteps_for, a.residual_timesteps_for)
     res_envs = residual_envs() if a.residual else {}
     trials: list[dict[str, Any]] = []
     common = {"episodes": a.episodes, "save_freq": 50_000, "eval_freq": a.eval_freq,
@@ -346,7 +357,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         raise SystemExit("--select best needs the periodic evaluation: --eval-freq > 0")
     for env_id in a.envs:  # residual trials first: they are the slow ones (baseline in the loop)
         if env_id in res_envs:
-            trials += make_trials([env_id], [a.algo], a.seeds, timesteps=steps_for[env_id],
+            trials += make_trials([env_id], [a.algo], a.seeds, timesteps=res_steps_for[env_id],
                                   log_folder=str(Path(a.log_folder) / "residual"),
                                   hyperparams=str(RESIDUAL_HYPERPARAMS),
                                   variant="residual", eval_kwargs=SELECTION_KWARGS.get(env_id, {}), **common)
@@ -383,7 +394,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     wall_min = (time.perf_counter() - wall0) / 60.0
     command = "python -m benchmarks.rl_vs_baselines " + " ".join(argv if argv is not None else sys.argv[1:])
     train_cpu = sum(r["train_info"]["cpu_s"] for r in swept) / 60.0
-    budget = ", ".join(f"{e.split('/')[-1]} {steps_for[e]}" for e in a.envs)
+    budget = ", ".join(f"{e.split('/')[-1]} {steps_for[e]}"
+                       + (f" (residual {res_steps_for[e]})" if e in res_envs and res_steps_for[e] != steps_for[e]
+                          else "") for e in a.envs)
     models = ("final models" if a.select == "final" else
               f"each agent's best_model.zip: the checkpoint with the highest mean return on {a.eval_episodes} "
               f"validation episodes (seeds 1000000 + k), evaluated every {a.eval_freq} steps (and at the end) under "
@@ -393,7 +406,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 f"returns under each environment's default reward). Training CPU time of "
                 f"all agents: {train_cpu:.1f} min (sum over the trials, including reused runs); wall time of the "
                 f"command: {wall_min:.1f} min.\n"]
-    record: dict[str, Any] = {"command": command, "algo": a.algo, "timesteps": steps_for, "seeds": a.seeds,
+    record: dict[str, Any] = {"command": command, "algo": a.algo, "timesteps": steps_for,
+                              "residual_timesteps": {e: res_steps_for[e] for e in res_envs}, "seeds": a.seeds,
                               "episodes": a.episodes, "train_cpu_min": train_cpu, "wall_min": wall_min,
                               "select": a.select, "eval_freq": a.eval_freq, "eval_episodes": a.eval_episodes,
                               "selection_kwargs": SELECTION_KWARGS,
@@ -407,7 +421,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                      "reused": r["reused"], "metrics": {k: v for k, v in r["metrics"].items() if k != "agent"}}
                     for r in swept if r["trial"]["env_id"] == env_id and r["trial"]["variant"] == variant]
             if rows:
-                k = steps_for[env_id] // 1000
+                k = (steps_for if variant == "pure" else res_steps_for)[env_id] // 1000
                 hp_file = RESIDUAL_HYPERPARAMS if variant == "residual" else None
                 note = (wrapper_note(a.algo, env_id, hp_file)
                         + reward_note(training_reward(a.algo, env_id, hp_file)))

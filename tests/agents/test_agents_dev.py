@@ -33,6 +33,8 @@ def test_dev_set_rows_groups_and_stress_arguments(tmp_path: Path) -> None:
     names = [r["policy"] for r in rec["rows"]]
     assert names == ["group 1 (1 models: mean)", model, "group 2 (1 models: mean)", model, "zero action",
                      "cascade (paper)"]
+    assert [r["kind"] for r in rec["rows"]] == ["group", "model", "group", "model", "baseline", "baseline"]
+    assert all(len(r["ended_after"]) == len(r["ended"]) for r in rec["rows"] if r["kind"] != "group")
     direct = evaluate_agent(model, FORCE, 2, DEV_SEED_BASE, episode_steps=30,
                             env_kwargs={"force_range": [3000, 3200]})
     assert rec["rows"][1]["return"] == pytest.approx(direct["return"], rel=1e-12)

@@ -105,3 +105,14 @@ def test_a_run_is_found_by_its_budget_not_its_rounded_step_count(tmp_path: Path)
     wj(save / "train_info.json", {**info, "target_timesteps": 1000})
     assert finished_run(tmp_path, QC, "ppo", 0, 1000)["save_path"] == str(save)
     assert finished_run(tmp_path, QC, "ppo", 0, 1024) is None
+
+
+def test_residual_agents_can_have_their_own_budget() -> None:
+    from benchmarks.rl_vs_baselines import budgets
+
+    envs = [QC, "vsa_gym/VsaUT2-PositionStiffness-v0"]
+    pure, res = budgets(envs, 1000, ["VsaUT2-PositionStiffness-v0=6000"], ["VsaUT2-PositionStiffness-v0=500"])
+    assert pure == {QC: 1000, envs[1]: 6000} and res == {QC: 1000, envs[1]: 500}
+    assert budgets(envs, 1000, ["ELPAS-QuarterCar-v0=20"])[1] == {QC: 20, envs[1]: 1000}  # default: the pure one
+    with pytest.raises(SystemExit, match="residual-timesteps-for"):
+        budgets(envs, 1000, [], ["Unknown-v0=5"])
