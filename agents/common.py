@@ -83,6 +83,17 @@ def _construct_ordered_dict(loader: yaml.SafeLoader, node: yaml.Node) -> dict[An
 ZooLoader.add_constructor(ORDERED_DICT_TAG, _construct_ordered_dict)
 
 
+def yaml_mapping(text: str) -> dict[str, Any]:
+    """An ``argparse`` type: a YAML mapping such as ``"{force_range: [2800, 3200]}"`` (environment arguments on
+    the command line); anything else is refused with the value it got."""
+    import argparse
+
+    value = yaml.safe_load(text)
+    if not isinstance(value, Mapping):
+        raise argparse.ArgumentTypeError(f"expected a YAML mapping such as '{{failure_rate: 2.0}}', got {text!r}")
+    return dict(value)
+
+
 def read_yaml(path: str | os.PathLike[str]) -> Any:
     """A YAML file of ours or rl-zoo3's (hyperparameters, ``config.yml``, ``args.yml``), read by :class:`ZooLoader`."""
     with open(path) as fh:

@@ -48,6 +48,7 @@ from agents.common import (
     run_params_dir,
     vecnormalize_for,
     write_json,
+    yaml_mapping,
 )
 from agents.features import FEATURE_CLASS, feature_config, feature_policy
 from agents.hold import HOLD_CLASS, hold_config, hold_policy
@@ -221,23 +222,33 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     """
     from baselines.metrics import evaluate_policy
 
+    factory, kw, agent = agent_policy(model_path, env_id, algo, vecnormalize, env_kwargs, reward)
+    seeds = [seed_base + k for k in range(int(episodes))]
+    result = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
+    result = dict(result)
+    result["agent"] = {"model": agent["model"], "algo": agent["algo"], "vecnormalize": agent["vecnormalize"],
+                       "seeds": seeds, "env_kwargs": kw, "residual": agent["residual"],
+                       "features": agent["features"], "hold": agent["hold"], "reward": reward,
+                       "training_reward_kwargs": agent["training_reward_kwargs"]}
+    return result
+
+
+def agent_policy(model_path: str | os.PathLike[str], env_id: str, algo: str | None = None,
+                 vecnormalize: str | os.PathLike[str] | None = None, env_kwargs: Mapping[str, Any] | None = None,
+                 reward: str = "default") -> tuple[Any, dict[str, Any], dict[str, Any]]:
+    """``(policy_factory, env_kwargs, description)``: a trained agent as :func:`evaluate_agent` runs it (frozen
+    VecNormalize statistics, the run's wrappers rebuilt as policies) and the environment arguments to run it
+    with (the run's, reward-only ones dropped under ``reward="default"``, ``env_kwargs`` on top; no time limit
+    of the training env).  ``description`` names the model, algorithm, statistics and wrappers."""
     vn_path = Path(vecnormalize) if vecnormalize is not None else run_vecnormalize(model_path, env_id)
     policy = load_agent(model_path, algo, vn_path)
     kw, dropped = scoring_env_kwargs(env_id, training_env_kwargs(model_path, env_id), reward, env_kwargs)
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
-    seeds = [seed_base + k for k in range(int(episodes))]
     wrappers = training_vec_env_wrapper(model_path, env_id)
-    factory = wrapped_policy(policy, wrappers)
-    residual = residual_config(wrappers)
-    result = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
-    result = dict(result)
-    result["agent"] = {"model": str(model_path), "algo": algo or algo_of_model(model_path),
-                       "vecnormalize": str(vn_path), "seeds": seeds,
-                       "env_kwargs": kw, "residual": residual, "features": feature_config(wrappers),
-                       "hold": hold_config(wrappers),
-                       "reward": reward,
-                       "training_reward_kwargs": dropped}
-    return result
+    description = {"model": str(model_path), "algo": algo or algo_of_model(model_path), "vecnormalize": str(vn_path),
+                   "residual": residual_config(wrappers), "features": feature_config(wrappers),
+                   "hold": hold_config(wrappers), "training_reward_kwargs": dropped}
+    return wrapped_policy(policy, wrappers), kw, description
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -254,12 +265,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--episode-steps", type=int, default=None, help="shorter episodes (default: the time limit)")
     ap.add_argument("--reward", choices=REWARD_MODES, default="default",
                     help="return under the environment's default reward (default) or the training reward weights")
-    ap.add_argument("--env-kwargs", type=yaml.safe_load, default=None, metavar="YAML",
+    ap.add_argument("--env-kwargs", type=yaml_mapping, default=None, metavar="YAML",
                     help="environment arguments on top of the training ones, e.g. a stress set "
                          '"{force_range: [2800, 3200]}" or "{sensor_noise: true}"')
     a = ap.parse_args(argv)
-    if a.env_kwargs is not None and not isinstance(a.env_kwargs, Mapping):
-        ap.error(f"--env-kwargs must be a YAML mapping such as '{{force_range: [2800, 3200]}}', got {a.env_kwargs!r}")
     res = evaluate_agent(a.model, a.env, a.episodes, a.seed_base, a.algo, a.vecnormalize, a.episode_steps,
                          env_kwargs=a.env_kwargs, reward=a.reward)
     if a.json:

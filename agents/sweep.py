@@ -42,6 +42,7 @@ from agents.common import (
     run_env_kwargs,
     run_log_folder,
     write_json,
+    yaml_mapping,
 )
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
@@ -218,7 +219,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--save-freq", type=int, default=50_000)
     ap.add_argument("--eval-freq", type=int, default=25_000, help="periodic evaluation period in timesteps (0: off)")
     ap.add_argument("--eval-episodes", type=int, default=4, help="validation episodes per periodic evaluation")
-    ap.add_argument("--eval-kwargs", type=yaml.safe_load, default=None, metavar="YAML",
+    ap.add_argument("--eval-kwargs", type=yaml_mapping, default=None, metavar="YAML",
                     help='environment arguments of the periodic evaluation, e.g. "{failure_rate: 2.0}"')
     ap.add_argument("--select", choices=SELECT, default="final",
                     help="evaluate the final model or best_model.zip of the periodic evaluation")

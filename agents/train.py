@@ -71,6 +71,7 @@ from agents.common import (
     run_dirs,
     run_log_folder,
     write_json,
+    yaml_mapping,
 )
 from agents.zoo import write_args, zoo_args
 
@@ -402,7 +403,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="rows of the evaluation env (default: one per episode)")
     ap.add_argument("--eval-reward", choices=("default", "training"), default="training",
                     help="reward the periodic evaluation (best_model.zip) is scored with")
-    ap.add_argument("--eval-kwargs", type=yaml.safe_load, default=None, metavar="YAML",
+    ap.add_argument("--eval-kwargs", type=yaml_mapping, default=None, metavar="YAML",
                     help='environment arguments of the evaluation env on top, e.g. "{failure_rate: 2.0}"')
     ap.add_argument("--no-tensorboard", action="store_true")
     ap.add_argument("--no-progress-bar", action="store_true")

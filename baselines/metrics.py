@@ -21,7 +21,11 @@ The row it returns (a flat dict, means over the episodes):
 * ``steps`` (mean episode length), ``return`` (mean episode return), ``metric`` (name of the
   environment's primary tracking metric, :data:`PRIMARY_METRIC`) and ``metric_value``;
 * ``per_episode``: the same metrics as lists, one entry per seed (row order), e.g. to split a
-  :class:`MixedPolicy` run.
+  :class:`MixedPolicy` run;
+* with ``return_traces=True``, ``traces``: per step ``(n, T)`` arrays of the tracking errors; with
+  ``return_traces="all"`` also every ``margin_*`` and ``reward_*`` entry and ``energy_el_total`` of ``info``,
+  ``terminated`` (1 at the step that ended the episode without the time limit), and ``obs`` / ``action``
+  ``(n, T, dim)`` (the observation after the step and the action that led to it); NaN after a row's episode ended.
 
 Policies may also be given per row: any callable on ``(n, n_obs)``.  :class:`ZeroPolicy` and
 :class:`RandomPolicy` are the reference policies the tests compare the baselines with.
@@ -44,6 +48,12 @@ PRIMARY_METRIC: dict[str, str] = {
     "vsa_gym/VsaUT2-Throw-v0": "return",
 }
 """The tracking metric each environment is judged by (lower is better, except ``return``)."""
+
+ERROR_TRACES = ("force_error", "position_error", "log_stiffness_error", "weighted_accel")
+"""``info`` entries that ``return_traces=True`` keeps per step."""
+TRACE_KEYS = ("energy_el_total",)
+TRACE_PREFIXES = ("margin_", "reward_")
+"""``info`` entries that ``return_traces="all"`` keeps as well (besides the observation, action and end flag)."""
 
 Policy = Callable[[np.ndarray], np.ndarray]
 PolicyFactory = Callable[[Any], Policy]
@@ -119,11 +129,13 @@ def mixed_policy_factory(factories: Sequence[PolicyFactory], counts: Sequence[in
 
 def evaluate_policy(env_id: str, policy_factory: PolicyFactory, seeds: Sequence[int],
                     episode_steps: int | None = None, env_kwargs: Mapping[str, Any] | None = None,
-                    return_traces: bool = False) -> dict[str, Any]:
+                    return_traces: bool | str = False) -> dict[str, Any]:
     """Run ``policy_factory(env)`` on ``env_id`` for one episode per seed (see the module docstring)."""
     seeds = [int(s) for s in seeds]
     if not seeds:
         raise ValueError("seeds: need at least one seed")
+    if return_traces not in (False, True, "all"):
+        raise ValueError(f"return_traces must be False, True or 'all', got {return_traces!r}")
     env = gym.make_vec(env_id, num_envs=len(seeds), **dict(env_kwargs or {}))
     try:
         return _run(env, env_id, policy_factory, seeds, episode_steps, return_traces)
@@ -132,7 +144,7 @@ def evaluate_policy(env_id: str, policy_factory: PolicyFactory, seeds: Sequence[
 
 
 def _run(env: Any, env_id: str, policy_factory: PolicyFactory, seeds: list[int], episode_steps: int | None,
-         return_traces: bool) -> dict[str, Any]:
+         return_traces: bool | str) -> dict[str, Any]:
     n = len(seeds)
     limit = env.spec.max_episode_steps if env.spec is not None else None
     steps = int(episode_steps or limit or 1000)
@@ -182,9 +194,17 @@ def _run(env: Any, env_id: str, policy_factory: PolicyFactory, seeds: list[int],
         violations += np.where(alive & np.asarray(term) & ~success, 1, 0)
         length += alive
         if return_traces:
-            for key in ("force_error", "position_error", "log_stiffness_error", "weighted_accel"):
-                if key in info:
-                    traces.setdefault(key, []).append(np.where(alive, info[key], np.nan))
+            full = return_traces == "all"
+            keys = [k for k in info
+                    if k in ERROR_TRACES or (full and (k.startswith(TRACE_PREFIXES) or k in TRACE_KEYS))]
+            for key in keys:
+                traces.setdefault(key, []).append(np.where(alive, np.asarray(info[key], dtype=np.float64), np.nan))
+            if full:
+                traces.setdefault("obs", []).append(np.where(alive[:, None], np.asarray(obs, dtype=np.float64),
+                                                             np.nan))
+                traces.setdefault("action", []).append(np.where(alive[:, None], a.astype(np.float64), np.nan))
+                traces.setdefault("terminated", []).append(np.where(alive, np.asarray(term, dtype=np.float64),
+                                                                    np.nan))
         alive &= ~(np.asarray(term) | np.asarray(trunc))
         if not alive.any():
             break

@@ -7,11 +7,12 @@ Run::
     python -m benchmarks.agent_replay --env vsa_gym/ELPAS-ForceTracking-v0 --seed 2000006 \\
         --baseline "cascade (paper)" --every 40 --first 20
 
-The policy runs as :mod:`agents.evaluate` runs it (the agent's training environment arguments and wrappers, its
-frozen VecNormalize statistics; a baseline with its own arguments, ``benchmarks.rl_vs_baselines.baseline_factories``)
-on ``gym.make(ENV)`` reset with ``--seed``.  Printed every ``--every`` steps (``--first`` / ``--last`` rows of that
-listing): the step, every observation channel, the action and the ``margin_*`` entries of ``info``; then how the
-episode ended (step, terminated or truncated, the margins and reward terms of the last step).
+The episode is the one :mod:`agents.evaluate` scores: ``baselines.metrics.evaluate_policy`` on the seed with its
+per-step traces, the agent built by ``agents.evaluate.agent_policy`` (its training environment arguments and
+wrappers, its frozen VecNormalize statistics), a baseline with its own arguments
+(``benchmarks.rl_vs_baselines.baseline_factories``).  Printed every ``--every`` steps (``--first`` / ``--last``
+rows of that listing): the step, every observation channel, the action and the ``margin_*`` entries of ``info``;
+then how the episode ended (step, terminated or truncated, the margins and reward terms of the last step).
 """
 
 from __future__ import annotations
@@ -21,54 +22,34 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
-import yaml
 
-import vsa_gym  # noqa: F401  (registers the ids)
+from agents.common import yaml_mapping
 
 
 def replay(env_id: str, seed: int, policy_factory: Any, env_kwargs: dict[str, Any]) -> dict[str, Any]:
-    """One episode: per-step observations (after the step), actions and ``margin_*`` values, and the last info."""
-    env = gym.make(env_id, **env_kwargs)
-    try:
-        policy = policy_factory(env)
-        obs, _ = env.reset(seed=seed)
-        if hasattr(policy, "reset"):
-            policy.reset()
-        rows: list[np.ndarray] = []
-        margins: list[str] = []
-        info: dict[str, Any] = {}
-        term = trunc = False
-        while not (term or trunc):
-            a = np.asarray(policy(obs), dtype=np.float32).reshape(env.action_space.shape)
-            obs, _, term, trunc, info = env.step(a)
-            if not margins:
-                margins = sorted(k for k in info if k.startswith("margin_"))
-            rows.append(np.concatenate([np.atleast_1d(obs), a, [float(info[k]) for k in margins]]))
-        channels = [c.name for c in env.unwrapped.task.obs_channels]
-        actions = [f"a{i}" for i in range(int(np.prod(env.action_space.shape)))]
-        return {"columns": ["step", *channels, *actions, *margins], "rows": np.array(rows), "terminated": term,
-                "truncated": trunc, "last_info": {k: v for k, v in info.items() if np.isscalar(v)}}
-    finally:
-        env.close()
+    """One episode (``evaluate_policy`` on one seed with traces): per-step rows of the observation after the step,
+    the action and the ``margin_*`` values, how the episode ended, and the scalars of its last step."""
+    from baselines.metrics import evaluate_policy
 
+    seen: dict[str, Any] = {}
 
-def agent_factory(model: str, env_id: str) -> tuple[Any, dict[str, Any]]:
-    """``(policy_factory, env_kwargs)`` of a trained agent, as :func:`agents.evaluate.evaluate_agent` builds them."""
-    from agents.evaluate import (
-        load_agent,
-        run_vecnormalize,
-        scoring_env_kwargs,
-        training_env_kwargs,
-        training_vec_env_wrapper,
-        wrapped_policy,
-    )
+    def factory(env: Any) -> Any:  # the evaluation's own env: its observation channels
+        seen["env"] = env
+        return policy_factory(env)
 
-    policy = load_agent(model, vecnormalize=run_vecnormalize(model, env_id))
-    kw = scoring_env_kwargs(env_id, training_env_kwargs(model, env_id))[0]
-    kw.pop("max_episode_steps", None)
-    return wrapped_policy(policy, training_vec_env_wrapper(model, env_id)), kw
+    res = evaluate_policy(env_id, factory, [seed], env_kwargs=env_kwargs or None, return_traces="all")
+    tr = {k: np.asarray(v)[0] for k, v in res["traces"].items()}
+    n = int(res["steps"])
+    margins = sorted(k for k in tr if k.startswith("margin_"))
+    rows = np.concatenate([tr["obs"][:n], tr["action"][:n], np.stack([tr[k][:n] for k in margins], axis=1)], axis=1)
+    channels = [c.name for c in seen["env"].unwrapped.task.obs_channels]
+    actions = [f"a{i}" for i in range(tr["action"].shape[1])]
+    violation = bool(res["per_episode"]["violations"][0])
+    terminated = bool(tr["terminated"][n - 1])
+    return {"columns": ["step", *channels, *actions, *margins], "rows": rows, "terminated": terminated,
+            "truncated": not terminated, "violation": violation,
+            "last_info": {k: float(v[n - 1]) for k, v in tr.items() if v.ndim == 1 and k != "terminated"}}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -78,17 +59,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     who = ap.add_mutually_exclusive_group(required=True)
     who.add_argument("--model", help="an agent's model .zip")
     who.add_argument("--baseline", help="a baseline's name as in the comparison table, e.g. 'cascade (paper)'")
-    ap.add_argument("--env-kwargs", type=yaml.safe_load, default=None, metavar="YAML")
+    ap.add_argument("--env-kwargs", type=yaml_mapping, default=None, metavar="YAML")
     ap.add_argument("--every", type=int, default=50, help="print every N-th step")
     ap.add_argument("--first", type=int, default=None, help="print only the first N rows of the listing")
     ap.add_argument("--last", type=int, default=None, help="print only the last N rows of the listing")
     a = ap.parse_args(argv)
     if a.every < 1:
         ap.error(f"--every must be >= 1, got {a.every}")
-    if a.env_kwargs is not None and not isinstance(a.env_kwargs, dict):
-        ap.error(f"--env-kwargs must be a YAML mapping, got {a.env_kwargs!r}")
     if a.model is not None:
-        factory, kw = agent_factory(a.model, a.env)
+        from agents.evaluate import agent_policy
+
+        factory, kw, _ = agent_policy(a.model, a.env, env_kwargs=a.env_kwargs)
     else:
         from benchmarks.rl_vs_baselines import baseline_factories
 
@@ -96,8 +77,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if a.baseline not in known:
             ap.error(f"--baseline {a.baseline!r} is not a baseline of {a.env}; known: {sorted(known)}")
         factory, kw = known[a.baseline]
-        kw = dict(kw)
-    res = replay(a.env, a.seed, factory, {**kw, **(a.env_kwargs or {})})
+        kw = {**kw, **(a.env_kwargs or {})}
+    res = replay(a.env, a.seed, factory, kw)
     rows = res["rows"]
     idx = np.arange(0, len(rows), a.every)
     if len(rows) and idx[-1] != len(rows) - 1:
@@ -109,7 +90,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     print(" ".join(f"{c:>12s}" for c in res["columns"]))
     for i in idx:
         print(f"{i + 1:12d} " + " ".join(f"{v:12.5g}" for v in rows[i]))
-    end = "terminated (a constraint)" if res["terminated"] else "truncated (time limit)"
+    end = ("terminated (a constraint)" if res["violation"] else
+           "terminated (the task's own end, e.g. a throw's release)" if res["terminated"] else "truncated (time limit)")
     print(f"episode ended after {len(rows)} steps: {end}")
     print("last step: " + ", ".join(f"{k} = {v:.5g}" for k, v in res["last_info"].items()
                                       if k.startswith(("margin_", "reward_"))))

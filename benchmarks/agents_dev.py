@@ -3,15 +3,15 @@
 Run::
 
     python -m benchmarks.agents_dev --env vsa_gym/ELPAS-ForceTracking-v0 --episodes 32 \\
-        --models logs/probe_a/ppo/*/best_model.zip -- logs/probe_b/ppo/*/best_model.zip \\
+        --models logs/probe_a/ppo/*/best_model.zip --models logs/probe_b/ppo/*/best_model.zip \\
         --env-kwargs "{force_range: [2800, 3200]}" --json out/dev_ft.json
 
 Every policy runs the same ``--episodes`` episodes on the seeds ``DEV_SEED_BASE + k`` (``agents.common``: never
 used by training, by the periodic evaluation that picks ``best_model.zip`` nor by the comparison table's test
 episodes), optionally under other environment arguments (``--env-kwargs``: a stress set such as the top of the
 reference range, sensor noise, domain randomisation; they apply on top of each agent's training arguments and
-each baseline's own).  ``--models`` takes groups of models separated by ``--`` (one group per setting, e.g. the
-seeds of one probe); each group gets a row with its mean over the models and every model a row of its own.
+each baseline's own).  Each ``--models`` gives one group of models (one group per setting, e.g. the seeds of one
+probe); each group gets a row with its mean over the models and every model a row of its own.
 Baselines (``benchmarks.rl_vs_baselines.baseline_factories``; the quarter car's skyhook also at ``--skyhook-gains``)
 are evaluated too unless ``--no-baselines``.
 
@@ -29,9 +29,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
-from agents.common import DEV_SEED_BASE, write_json
+from agents.common import DEV_SEED_BASE, write_json, yaml_mapping
 
 
 def _summary(name: str, res: Mapping[str, Any]) -> dict[str, Any]:
@@ -63,16 +62,11 @@ def evaluate_models(env_id: str, groups: Sequence[Sequence[str]], episodes: int,
 
 def evaluate_baselines(env_id: str, episodes: int, seed_base: int, env_kwargs: Mapping[str, Any] | None,
                        episode_steps: int | None = None, skyhook_gains: Sequence[float] = ()) -> list[dict[str, Any]]:
-    from baselines.metrics import evaluate_policy
-    from benchmarks.rl_vs_baselines import baseline_factories
+    """The table's baselines (``benchmarks.rl_vs_baselines.evaluate_baselines``) on these episodes, summarised."""
+    from benchmarks.rl_vs_baselines import evaluate_baselines as table_baselines
 
-    seeds = [seed_base + k for k in range(episodes)]
-    rows = []
-    for name, (factory, kw) in baseline_factories(env_id, skyhook_gains).items():
-        res = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps,
-                              env_kwargs={**kw, **dict(env_kwargs or {})})
-        rows.append({**_summary(name, res), "kind": "baseline"})
-    return rows
+    base = table_baselines(env_id, episodes, {}, skyhook_gains, seed_base, env_kwargs, episode_steps)
+    return [{**_summary(name, rows[0]), "kind": "baseline"} for name, rows in base.items()]
 
 
 def table(rows: Sequence[Mapping[str, Any]]) -> str:
@@ -87,47 +81,26 @@ def table(rows: Sequence[Mapping[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def split_groups(items: Sequence[str]) -> list[list[str]]:
-    """``a b -- c d`` -> ``[[a, b], [c, d]]`` (empty groups dropped)."""
-    groups: list[list[str]] = [[]]
-    for it in items:
-        if it == "--":
-            groups.append([])
-        else:
-            groups[-1].append(it)
-    return [g for g in groups if g]
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--env", required=True)
-    ap.add_argument("--models", nargs="*", default=[], help="model .zip files; '--' separates groups")
+    ap.add_argument("--models", nargs="+", action="append", default=[], metavar="MODEL",
+                    help="model .zip files of one setting; repeat --models for each further setting")
     ap.add_argument("--episodes", type=int, default=32)
     ap.add_argument("--seed-base", type=int, default=DEV_SEED_BASE)
-    ap.add_argument("--env-kwargs", type=yaml.safe_load, default=None, metavar="YAML")
+    ap.add_argument("--env-kwargs", type=yaml_mapping, default=None, metavar="YAML")
     ap.add_argument("--episode-steps", type=int, default=None, help="shorter episodes (default: the time limit)")
     ap.add_argument("--no-baselines", action="store_true")
     ap.add_argument("--skyhook-gains", type=float, nargs="*", default=[],
                     help="quarter car: the skyhook also at these damping gains (N s/m)")
     ap.add_argument("--json", default=None, metavar="FILE")
-    argv = list(sys.argv[1:] if argv is None else argv)
-    # argparse would take a lone '--' as the end of the options: read the model list by hand
-    models: list[str] = []
-    if "--models" in argv:
-        i = argv.index("--models")
-        j = i + 1
-        while j < len(argv) and (argv[j] == "--" or not argv[j].startswith("--")):
-            j += 1
-        models, argv = argv[i + 1:j], argv[:i] + argv[j:]
     a = ap.parse_args(argv)
-    if a.env_kwargs is not None and not isinstance(a.env_kwargs, Mapping):
-        ap.error(f"--env-kwargs must be a YAML mapping, got {a.env_kwargs!r}")
     if a.episodes < 1:
         ap.error(f"--episodes must be >= 1, got {a.episodes}")
-    for m in models:
-        if m != "--" and not Path(m).is_file():
+    for m in (m for group in a.models for m in group):
+        if not Path(m).is_file():
             ap.error(f"--models: {m} is not a file")
-    rows = evaluate_models(a.env, split_groups(models), a.episodes, a.seed_base, a.env_kwargs, a.episode_steps)
+    rows = evaluate_models(a.env, a.models, a.episodes, a.seed_base, a.env_kwargs, a.episode_steps)
     if not a.no_baselines:
         rows += evaluate_baselines(a.env, a.episodes, a.seed_base, a.env_kwargs, a.episode_steps, a.skyhook_gains)
     print(f"{a.env}: {a.episodes} episodes on seeds {a.seed_base} + k, environment arguments on top: "

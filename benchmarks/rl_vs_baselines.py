@@ -37,7 +37,7 @@ import re
 import sys
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -107,21 +107,25 @@ def baseline_factories(env_id: str, skyhook_gains: Sequence[float] = ()
     return out
 
 
-def evaluate_baselines(env_id: str, episodes: int, cache: dict[str, Any],
-                       skyhook_gains: Sequence[float] = ()) -> dict[str, list[dict[str, Any]]]:
-    """Metrics of every baseline over the held-out episodes (one batched ``evaluate_policy`` call each).
+def evaluate_baselines(env_id: str, episodes: int, cache: dict[str, Any], skyhook_gains: Sequence[float] = (),
+                       seed_base: int = METRIC_SEED_BASE, env_kwargs: Mapping[str, Any] | None = None,
+                       episode_steps: int | None = None) -> dict[str, list[dict[str, Any]]]:
+    """Metrics of every baseline over the episodes ``seed_base + k`` (one batched ``evaluate_policy`` call each;
+    ``env_kwargs`` on top of each baseline's own arguments).
 
     The baselines are deterministic controllers; the row is the mean over the episodes (batched
     evaluation returns means only, so no interval is given for them).
     """
     from baselines.metrics import evaluate_policy
 
-    seeds = [METRIC_SEED_BASE + k for k in range(episodes)]
+    seeds = [seed_base + k for k in range(episodes)]
+    extra = dict(env_kwargs or {})
     out: dict[str, list[dict[str, Any]]] = {}
     for name, (factory, kw) in baseline_factories(env_id, skyhook_gains).items():
-        key = f"{env_id}|{name}|{seeds[0]}|{episodes}"
+        key = f"{env_id}|{name}|{seeds[0]}|{episodes}" + (f"|{extra}|{episode_steps}" if extra or episode_steps else "")
         if key not in cache:
-            cache[key] = evaluate_policy(env_id, factory, seeds, env_kwargs=kw or None)
+            cache[key] = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps,
+                                         env_kwargs={**kw, **extra} or None)
         out[name] = [cache[key]]
     return out
 

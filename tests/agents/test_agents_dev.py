@@ -10,15 +10,10 @@ import pytest
 from agents.common import DEV_SEED_BASE, EVAL_SEED_BASE, METRIC_SEED_BASE
 from agents.evaluate import evaluate_agent
 from agents.train import train
-from benchmarks.agents_dev import main, split_groups
+from benchmarks.agents_dev import main
 from tests.agents.conftest import tiny
 
 FORCE = "vsa_gym/ELPAS-ForceTracking-v0"
-
-
-def test_split_groups() -> None:
-    assert split_groups(["a", "b", "--", "c", "--", "--"]) == [["a", "b"], ["c"]]
-    assert split_groups([]) == []
 
 
 def test_dev_set_rows_groups_and_stress_arguments(tmp_path: Path) -> None:
@@ -26,7 +21,7 @@ def test_dev_set_rows_groups_and_stress_arguments(tmp_path: Path) -> None:
     info = train(FORCE, "ppo", 256, seed=1, log_folder=tmp_path, params=tiny("ppo"), save_freq=0, eval_freq=0)
     model = info["model"]
     out = tmp_path / "dev.json"
-    assert main(["--env", FORCE, "--episodes", "2", "--episode-steps", "30", "--models", model, "--", model,
+    assert main(["--env", FORCE, "--episodes", "2", "--episode-steps", "30", "--models", model, "--models", model,
                  "--env-kwargs", "{force_range: [3000, 3200]}", "--json", str(out)]) == 0
     rec = json.loads(out.read_text())
     assert rec["seed_base"] == DEV_SEED_BASE and rec["env_kwargs"] == {"force_range": [3000, 3200]}

@@ -41,6 +41,22 @@ def test_stop_barrier_law() -> None:
     assert stop_barrier(0.1, 0.0, 0.4) == 0.0
 
 
+def test_default_band_leaves_the_reference_range_free() -> None:
+    """The default ``stop_width`` (0.4 rad before the +-90 deg stop) starts beyond the arm angle at which the static
+    force at alpha = 0 reaches the top of the reference range: tracking any reference needs no priced angle there."""
+    from vsa_gym.devices.elpas.cone import spring_unchecked
+    from vsa_gym.devices.elpas.params import ElpasParams
+
+    env = gym.make(ENV_ID)
+    task = env.unwrapped.task
+    width = task.stop_width
+    top = next(c.high for c in task.obs_channels if c.name == "force_ref")
+    gamma_free = np.pi / 2 - width
+    assert np.rad2deg(gamma_free) == pytest.approx(67.1, abs=0.1)
+    cone = ElpasParams().cone
+    assert float(spring_unchecked(cone, np.array([gamma_free]), np.array([0.0])).F_act[0]) > top
+
+
 def test_stop_term_prices_the_approach_and_changes_nothing_else() -> None:
     w, width = 7.0, 0.4
     plain = gym.make(ENV_ID, control_mode="current")

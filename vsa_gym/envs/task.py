@@ -101,9 +101,9 @@ def check_stop_barrier(w_stop: float, stop_width: float) -> tuple[float, float]:
 @register_jitable
 def stop_barrier(margin: float, w_stop: float, stop_width: float) -> float:
     """``-w_stop max(0, 1 - margin / stop_width)^2``: a cost that grows from 0, ``stop_width`` away from a
-    constraint, to ``w_stop`` at contact (``margin`` <= 0), in the margin's unit.  A training aid: it prices
-    the approach to a stop inside the learner's discount horizon, where the failure at the stop may lie beyond
-    it; the tasks' default weight is 0."""
+    constraint, to ``w_stop`` at contact (``margin`` = 0) and on past it, in the margin's unit.  A training aid:
+    it prices the approach to a stop inside the learner's discount horizon, where the failure at the stop may lie
+    beyond it; the tasks' default weight is 0."""
     d = 1.0 - margin / stop_width
     return -w_stop * d * d if d > 0.0 else 0.0
 
