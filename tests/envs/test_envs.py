@@ -431,8 +431,10 @@ def test_vsaut2_failure_charges_the_remaining_steps() -> None:
 def test_elpas_failure_charges_the_remaining_steps(env_id: str, rate: float) -> None:
     """With failure_rate an eLPAS failure costs failure_penalty + failure_rate per step left, so ending the episode
     on a constraint on purpose scores below the zero action (on the quarter car, with the fixed penalty alone, a
-    trained agent's did score above the skyhook); the default (0) is the fixed penalty."""
-    env = gym.make(env_id, failure_rate=rate)
+    trained agent's did score above the skyhook); the default (0) is the fixed penalty.  The drive's software travel
+    limit is off here (``soft_limit=None``), so that full voltage reaches the end stop."""
+    off = {"soft_limit": None}
+    env = gym.make(env_id, failure_rate=rate, **off)
     assert env.unwrapped.task.episode_steps == env.spec.max_episode_steps == 5000
 
     def crash(e: gym.Env) -> tuple[float, int, dict]:
@@ -455,9 +457,9 @@ def test_elpas_failure_charges_the_remaining_steps(env_id: str, rate: float) -> 
         zero += r
         assert not term
     assert ret < zero
-    _, k0, info0 = crash(gym.make(env_id))
+    _, k0, info0 = crash(gym.make(env_id, **off))
     assert k0 == k and info0["reward_failure"] == -100.0  # the default: the fixed penalty
-    _, k2, info2 = crash(gym.make(env_id, failure_rate=0.5, episode_steps=900, failure_penalty=5.0))
+    _, k2, info2 = crash(gym.make(env_id, failure_rate=0.5, episode_steps=900, failure_penalty=5.0, **off))
     assert k2 == k and info2["reward_failure"] == pytest.approx(-(5.0 + 0.5 * (900 - k2)), rel=1e-12)
     venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=700)
     assert venv.unwrapped.task.episode_steps == 700

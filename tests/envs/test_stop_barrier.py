@@ -1,6 +1,7 @@
 """The force-tracking task's ``stop`` term: a training-only price on approaching the gamma end stop.
 
-Checked: the term's law against ``info["margin_gamma_stop"]`` on a rollout that drives the arm into its stop,
+Checked: the term's law against ``info["margin_gamma_stop"]`` on a rollout that drives the arm into its stop
+(the drive's software travel limit switched off for it),
 zero by default and farther than ``stop_width`` from the stop, the reward is the sum of its terms, the term
 changes nothing else (same dynamics, observations and episode end), single env == native vector env, and
 bad weights are named.
@@ -59,8 +60,9 @@ def test_default_band_leaves_the_reference_range_free() -> None:
 
 def test_stop_term_prices_the_approach_and_changes_nothing_else() -> None:
     w, width = 7.0, 0.4
-    plain = gym.make(ENV_ID, control_mode="current")
-    priced = gym.make(ENV_ID, control_mode="current", w_stop=w, stop_width=width)
+    # without the drive's software travel limit, so that the rollout reaches the stop
+    plain = gym.make(ENV_ID, control_mode="current", soft_limit=None)
+    priced = gym.make(ENV_ID, control_mode="current", soft_limit=None, w_stop=w, stop_width=width)
     obs0, info0, r0, term0 = _drive_into_stop(plain)
     obs1, info1, r1, term1 = _drive_into_stop(priced)
     assert term0 and term1 and len(r0) == len(r1)  # the same episode end at the same step
@@ -78,7 +80,7 @@ def test_stop_term_prices_the_approach_and_changes_nothing_else() -> None:
 
 
 def test_stop_term_single_equals_vector() -> None:
-    kw = dict(control_mode="current", w_stop=5.0, stop_width=0.6)
+    kw = dict(control_mode="current", w_stop=5.0, stop_width=0.6, soft_limit=None)
     single = gym.make(ENV_ID, **kw)
     _, infos, rewards, _ = _drive_into_stop(single, seed=3)
     venv = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", **kw)

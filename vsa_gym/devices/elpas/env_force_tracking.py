@@ -295,7 +295,9 @@ class ElpasForceTrackingEnv(TaskEnv):
 
     ## Episode end
     ``terminated``: gamma end stop contact (+-90 deg) or I^2 t trip.  ``truncated``: the time
-    limit (5000 steps = 5 s at the default ``control_dt`` of 1 ms).
+    limit (5000 steps = 5 s at the default ``control_dt`` of 1 ms).  The drive's software travel limit
+    (``soft_limit``, 80 deg; :func:`vsa_gym.devices.elpas.task.soft_limit_command`) brakes the arm before the
+    end stop, as the paper's cascade does by limiting its angle reference.
 
     ## Arguments
     ``control_dt`` (1e-3 s), ``control_mode`` ("voltage" | "current"), ``params``
@@ -305,11 +307,11 @@ class ElpasForceTrackingEnv(TaskEnv):
     ``force_scale``, ``force_range``, ``alpha_amplitude``, ``failure_penalty``, ``failure_rate``,
     ``episode_steps``, ``w_stop``, ``stop_width`` (rad), ``current_loop``
     (:class:`~vsa_gym.devices.elpas.task.ElpasCurrentLoop`), ``i_nominal``, ``i2t_trip_s``,
-    ``velocity_cutoff_hz``, ``parallel_rows`` (vector env: the compiled step's row loop on all cores from 64
-    rows; off by default, see docs/performance.md).
+    ``velocity_cutoff_hz``, ``soft_limit`` (rad, None: off), ``soft_limit_decel`` (rad/s^2), ``parallel_rows``
+    (vector env: the compiled step's row loop on all cores from 64 rows; off by default, see docs/performance.md).
 
     ## Version history
-    * v0: initial release.
+    * v0: initial release; the drive's software travel limit on by default since 2026-11-29.
     """
 
     task_cls = ForceTrackingTask

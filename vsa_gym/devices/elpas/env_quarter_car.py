@@ -415,10 +415,11 @@ class ElpasQuarterCarEnv(TaskEnv):
     ``{{"car.m_s": (230, 290)}}``), ``sensor_noise`` (channels ``current``, ``force``, ``accel``),
     ``regen``, ``render_mode``, ``w_comfort``, ``w_travel``, ``w_tyre``, ``w_energy``,
     ``accel_scale``, ``travel_soft``, ``failure_penalty``, ``failure_rate``, ``episode_steps`` and the drive
-    options of :class:`vsa_gym.devices.elpas.task.ElpasTask`.
+    options of :class:`vsa_gym.devices.elpas.task.ElpasTask` (``soft_limit``, its software travel limit, among them).
 
     ## Version history
-    * v0: initial release (class B road, 300 N s/m parallel damper by default).
+    * v0: initial release (class B road, 300 N s/m parallel damper by default); the drive's software travel limit
+      (``soft_limit``) on by default since 2026-11-29.
     """
 
     task_cls = QuarterCarTask

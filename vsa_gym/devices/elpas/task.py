@@ -19,6 +19,14 @@ wishbone (alpha) [proposed: the paper does not name its sensor]; the drive's cur
 measurement; the force sensor between wishbone and hydropulse/body (``F_act``);
 optional white noise on current and force (``sensor_noise``).
 
+Drive protection (``soft_limit``): the paper's cascade keeps the arm inside its range by limiting the angle
+reference to [-90, 90] deg (Sec. 4); an agent that commands the motor directly has no angle loop, so the drive
+keeps a software travel limit of its own, as servo drives do (CiA 402 software position limit; the "safely-limited
+position" function of IEC 61800-5-2): from the encoder angle and the drive's speed estimate it limits the command
+towards the nearer end stop so that the arm, braking at ``soft_limit_decel``, comes to rest at ``soft_limit``
+(:func:`soft_limit_command`).  Commands away from the stop, and everything short of the braking curve, pass
+unchanged.  ``soft_limit=None`` switches it off.
+
 Failures: gamma end-stop contact ``|gamma| >= gamma_max`` (90 deg), I^2 t trip of the
 drive (nominal 25 A [proposed], peak 75 A for 2 s).
 """
@@ -50,8 +58,17 @@ from vsa_gym.physics.sensors import absolute_encoder_angle, floor_quantize
 
 # entries of the drive configuration array ``ElpasTask._cfg`` read by the compiled step
 (C_DT, C_H, C_N_INNER, C_N_SUB, C_CURRENT_MODE, C_P_M, C_I_M, C_I_M_MAX, C_I_NOM, C_V_GAIN, C_ENC_MOTOR,
- C_ENC_ALPHA, C_ENC_GM, C_I2T_TRIP, C_REGEN_CLIP, C_VEHICLE) = range(16)
-N_CFG = 16
+ C_ENC_ALPHA, C_ENC_GM, C_I2T_TRIP, C_REGEN_CLIP, C_VEHICLE, C_SOFT_LIM, C_SOFT_DEC) = range(18)
+N_CFG = 18
+#: the software travel limit's defaults: 80 deg (10 deg before the end stops; the top of the force-tracking
+#: reference range needs less than 67 deg) and a braking deceleration of 100 rad/s^2 (a sixth of what I_max gives
+#: the bare arm, K_T I_max |N| / J_r = 600 rad/s^2, leaving the rest for the spring's moment)
+SOFT_LIMIT_DEFAULT = 1.3962634015954636  # rad (80 deg)
+SOFT_LIMIT_DECEL_DEFAULT = 100.0  # rad/s^2
+#: the braking curve turns linear within ``2 decel tau^2`` of the limit (time constant tau, s), so that it has a
+#: finite slope there; the command reaches full reverse when the speed exceeds the curve by ``SOFT_LIMIT_BAND``
+SOFT_LIMIT_TAU = 0.02  # s
+SOFT_LIMIT_BAND = 0.5  # rad/s
 # columns of the drive bookkeeping array ``s["drive"]`` (``s["pi_int"]``, ... are views of them)
 D_PI, D_I2T, D_MEAS, D_VEL, D_CUR, D_FORCE, D_E_EL, D_E_CH, D_P_LAST = 0, 1, 2, 4, 6, 7, 8, 9, 10
 N_DRIVE = 11
@@ -90,6 +107,8 @@ class ElpasTask(CompiledStepTask):
         i_nominal: float = 25.0,
         i2t_trip_s: float = 2.0,
         velocity_cutoff_hz: float = 50.0,
+        soft_limit: float | None = SOFT_LIMIT_DEFAULT,
+        soft_limit_decel: float = SOFT_LIMIT_DECEL_DEFAULT,
         parallel_rows: bool = False,
     ) -> None:
         super().__init__(n, control_dt=control_dt, control_mode=control_mode, sensor_noise=sensor_noise,
@@ -115,6 +134,14 @@ class ElpasTask(CompiledStepTask):
         self._build_params()
         self.loop = ElpasCurrentLoop() if current_loop is None else current_loop
         self.i_nominal, self.i2t_trip_s = float(i_nominal), float(i2t_trip_s)
+        gmax = float(np.min(np.asarray(base.cone.gamma_max)))
+        if soft_limit is not None and not (np.isfinite(soft_limit) and 0.0 < soft_limit < gmax):
+            raise ValueError(f"soft_limit must be an angle in (0, gamma_max = {gmax:.4f}) rad, or None (off), "
+                             f"got {soft_limit}")
+        if not (np.isfinite(soft_limit_decel) and soft_limit_decel > 0.0):
+            raise ValueError(f"soft_limit_decel must be a deceleration > 0 rad/s^2, got {soft_limit_decel}")
+        self.soft_limit = None if soft_limit is None else float(soft_limit)
+        self.soft_limit_decel = float(soft_limit_decel)
         self.v_gain = lowpass_gain(velocity_cutoff_hz, self.control_dt)
         self.motor_encoder = ElpasMotorEncoder()
         self.alpha_encoder = ElpasAlphaEncoder()
@@ -150,6 +177,8 @@ class ElpasTask(CompiledStepTask):
         cfg[C_ENC_ALPHA] = ae.resolution if ae.enabled else 0.0
         cfg[C_ENC_GM] = ae.gain_mismatch if ae.enabled else 0.0
         cfg[C_REGEN_CLIP], cfg[C_VEHICLE] = self.regen == "clip", self.vehicle
+        cfg[C_SOFT_LIM] = 0.0 if self.soft_limit is None else self.soft_limit  # 0: off
+        cfg[C_SOFT_DEC] = self.soft_limit_decel
         #: drive configuration of the compiled step (``C_*`` entries)
         self._cfg = cfg
         self._init_compiled_step()
@@ -337,6 +366,9 @@ def drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarra
     dt, h = cfg[C_DT], cfg[C_H]
     n_inner, n_sub = int(cfg[C_N_INNER]), int(cfg[C_N_SUB])
     xr = x[i]
+    if cfg[C_SOFT_LIM] > 0.0:
+        sgn = 1.0 if p.drive.N > 0.0 else -1.0  # the arm turns with the motor's sign over N
+        cmd = sgn * soft_limit_command(sgn * cmd, meas[i, 0], vel[i, 0], cfg[C_SOFT_LIM], cfg[C_SOFT_DEC])
     if cfg[C_CURRENT_MODE] == 0.0:
         x_new = np.empty(xr.shape[0])
         e = np.empty(em.N_POWER)
@@ -361,6 +393,29 @@ def drive_row(x: np.ndarray, i: int, cmd: float, second_end: float, P: np.ndarra
     meas[i, 0], meas[i, 1] = m0, a
     F = spring_unchecked(p.cone, xr[em.GAMMA], xr[em.ALPHA]).F_act
     return e_el, F, finite
+
+
+@register_jitable
+def soft_limit_command(cmd: float, gamma: float, speed: float, limit: float, decel: float) -> float:
+    """The drive's software travel limit: the command ``cmd`` (in [-1, 1], positive turning the arm towards
+    positive ``gamma``: the motor command times the sign of the reduction ``N``) as the drive applies it.
+
+    ``gamma``, ``speed``: the drive's encoder angle (rad) and speed estimate (rad/s); ``limit``: the limit angle
+    (rad, both sides); ``decel``: the braking deceleration it plans with (rad/s^2).  With ``s`` the side of the
+    nearer stop, ``d = limit - s gamma`` the distance left and ``v = s speed`` the speed towards it, the allowed
+    speed is the braking curve ``v_a = sign(d) min(sqrt(2 decel |d|), |d| / SOFT_LIMIT_TAU)`` (negative beyond the
+    limit: back inside), and the command towards the stop is capped at ``(v_a - v) / SOFT_LIMIT_BAND`` (full reverse
+    at the latest ``SOFT_LIMIT_BAND`` above the curve).  Commands away from the stop pass unchanged.
+    """
+    s = 1.0 if gamma >= 0.0 else -1.0
+    d = limit - s * gamma
+    allowed = min(np.sqrt(2.0 * decel * abs(d)), abs(d) / SOFT_LIMIT_TAU)
+    if d < 0.0:
+        allowed = -allowed
+    cap = (allowed - s * speed) / SOFT_LIMIT_BAND
+    if s * cmd > cap:
+        return s * max(cap, -1.0)
+    return cmd
 
 
 @register_jitable
