@@ -21,9 +21,10 @@ reward, but the ``return`` does.  An agent may be trained with other reward weig
 ``env_kwargs: {w_energy: 0.01}``, a higher energy price); its return is then reported under the
 environment's **default** reward (``--reward default``, the default): the reward-only arguments of
 :data:`REWARD_KWARGS` are removed from the training ``env_kwargs`` before the evaluation, so every
-policy's return in a table is the same function of the same episodes.  ``--reward training`` keeps
-them (the return the agent was trained for).  ``agent.training_reward_kwargs`` in the JSON names
-what was removed.
+policy's return in a table is the same function of the same episodes; so are the drive protections an agent
+trained without (:data:`PROTECTION_KWARGS`: every policy is scored on the drive as registered).
+``--reward training`` keeps them (the return the agent was trained for).  ``agent.training_reward_kwargs``
+in the JSON names what was removed.
 """
 
 from __future__ import annotations
@@ -73,25 +74,38 @@ never the dynamics, observations or episode ends; ``tests/agents/test_evaluate_r
 for every registered id.  (``regen`` is reward-only on the eLPAS and the vsaUT-II position task; on the
 throw it decides how fast the energy budget is spent, so it is not listed there.)"""
 
+_ELPAS_PROTECTION = frozenset({"soft_limit", "soft_limit_decel"})
+PROTECTION_KWARGS: dict[str, frozenset[str]] = {
+    "vsa_gym/ELPAS-ForceTracking-v0": _ELPAS_PROTECTION,
+    "vsa_gym/ELPAS-QuarterCar-v0": _ELPAS_PROTECTION,
+}
+"""The drive's own protections (the eLPAS software travel limit): the scored task always has them at the
+environment's defaults.  An agent may train without one (``soft_limit: null``: a stop it reaches then ends the
+training episode and is charged); scored under the default reward it runs with the drive as registered, like
+every baseline.  These do change the dynamics near the stops, so they are listed apart from :data:`REWARD_KWARGS`
+and dropped together with them."""
+
 REWARD_MODES = ("default", "training")
 
 
 def split_reward_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """``(env_kwargs without the reward-only arguments, the reward-only arguments)`` of ``env_id``."""
+    """``(env_kwargs without the training-only arguments, those arguments)`` of ``env_id``: the reward-only ones
+    (:data:`REWARD_KWARGS`) and the drive protections (:data:`PROTECTION_KWARGS`)."""
     if env_id not in REWARD_KWARGS:
         raise ValueError(f"no list of reward-only arguments for {env_id!r} (agents.evaluate.REWARD_KWARGS); "
                          "evaluate with reward='training'")
-    keys = REWARD_KWARGS[env_id]
+    keys = REWARD_KWARGS[env_id] | PROTECTION_KWARGS.get(env_id, frozenset())
     return ({k: v for k, v in env_kwargs.items() if k not in keys},
             {k: v for k, v in env_kwargs.items() if k in keys})
 
 
 def scoring_env_kwargs(env_id: str, env_kwargs: Mapping[str, Any], reward: str = "default",
                        extra: Mapping[str, Any] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
-    """``(env_kwargs to score a policy with, the reward-only training arguments dropped)``.
+    """``(env_kwargs to score a policy with, the training-only arguments dropped)``.
 
-    ``reward="default"`` removes the reward-only arguments of :data:`REWARD_KWARGS` from the training
-    ``env_kwargs`` (the environment's default reward), ``"training"`` keeps them; ``extra`` applies last in
+    ``reward="default"`` removes the reward-only arguments of :data:`REWARD_KWARGS` and the drive protections of
+    :data:`PROTECTION_KWARGS` from the training ``env_kwargs`` (the environment's default reward and drive),
+    ``"training"`` keeps them; ``extra`` applies last in
     both cases.  Used by :func:`evaluate_agent` and by the periodic evaluation of :func:`agents.train.train`.
     """
     if reward not in REWARD_MODES:

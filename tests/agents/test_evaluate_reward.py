@@ -9,7 +9,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.evaluate import REWARD_KWARGS, evaluate_agent, split_reward_kwargs
+from agents.evaluate import PROTECTION_KWARGS, REWARD_KWARGS, evaluate_agent, scoring_env_kwargs, split_reward_kwargs
 from agents.train import train
 from tests.agents.conftest import tiny
 from vsa_gym.envs import ENV_IDS
@@ -21,6 +21,7 @@ OTHER: dict[str, Any] = {"w_force": 3.0, "w_energy": 0.05, "force_scale": 250.0,
                          "log_stiffness_scale": 0.5, "failure_rate": 50.0, "episode_steps": 1000, "shaping": 1.0,
                          "shaping_gamma": 0.9, "w_stop": 5.0, "stop_width": 1.5}
 QC = "vsa_gym/ELPAS-QuarterCar-v0"
+FT = "vsa_gym/ELPAS-ForceTracking-v0"
 
 
 def _rollout(env_id: str, kwargs: dict[str, Any], steps: int = 40) -> dict[str, Any]:
@@ -67,6 +68,20 @@ def test_split_keeps_the_physics_arguments() -> None:
     assert env_kw == {"control_mode": "current", "road_class": "C"} and reward_kw == {"w_energy": 0.01}
     with pytest.raises(ValueError, match="reward-only"):
         split_reward_kwargs("vsa_gym/Unknown-v0", {"w_energy": 0.01})
+
+
+def test_drive_protections_are_split_off_and_live() -> None:
+    """An agent trained without the eLPAS travel limit is scored with it: the split drops ``soft_limit`` under the
+    default reward and keeps it under the training reward; the arguments are the environment's, and live."""
+    kw = {"control_mode": "current", "soft_limit": None, "w_stop": 10.0}
+    assert scoring_env_kwargs(FT, kw)[0] == {"control_mode": "current"}
+    assert scoring_env_kwargs(FT, kw)[1] == {"soft_limit": None, "w_stop": 10.0}
+    assert scoring_env_kwargs(FT, kw, "training")[0] == kw
+    assert set(PROTECTION_KWARGS) <= set(ENV_IDS)
+    for env_id, keys in PROTECTION_KWARGS.items():
+        assert not keys & REWARD_KWARGS[env_id]  # listed apart: they do change the dynamics
+        env = gym.make(env_id, soft_limit=None, soft_limit_decel=50.0)
+        assert env.unwrapped.task.soft_limit is None and env.unwrapped.task.soft_limit_decel == 50.0
 
 
 def test_agent_trained_with_another_energy_price_is_scored_with_the_default_reward(tmp_path: Path) -> None:
