@@ -5,9 +5,10 @@
 Reads each run's ``evaluations.npz`` (written by ``agents.train --eval-freq``, as SB3's ``EvalCallback`` writes it:
 ``timesteps``, ``results`` and ``ep_lengths`` per validation episode) and prints the number of evaluations, the
 best mean validation return and its timestep (the checkpoint ``best_model.zip`` holds), the last ``--last`` mean
-returns, and at how many evaluations some validation episode was shorter than the longest (ended early on a
-constraint).  The returns are those of the run's own selection (its training reward, failures charged as its
-``--eval-kwargs`` said).
+returns, and at how many evaluations some validation episode was shorter than the run's longest (on the
+tracking tasks: ended on a constraint; on the throw also the release, the task's own end).  The returns are those
+of the run's own selection (its training reward, failures charged as its ``--eval-kwargs`` said); the best one is
+found by the selection's own rule (``agents.sweep.best_step``).
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from agents.sweep import best_step
 
 
 def curve(run: str | os.PathLike[str]) -> dict[str, Any]:
@@ -34,7 +37,7 @@ def curve(run: str | os.PathLike[str]) -> dict[str, Any]:
     if t.size == 0:
         raise ValueError(f"{f} holds no evaluation yet")
     mean = r.mean(axis=1)
-    k = int(np.argmax(mean))  # the first highest, as EvalCallback keeps best_model.zip
+    k = int(np.flatnonzero(t == best_step(run))[0])  # the checkpoint best_model.zip holds
     ended = None
     if lengths is not None:
         longest = lengths.max()

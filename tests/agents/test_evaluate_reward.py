@@ -72,7 +72,8 @@ def test_split_keeps_the_physics_arguments() -> None:
 
 def test_drive_protections_are_split_off_and_live() -> None:
     """An agent trained without the eLPAS travel limit is scored with it: the split drops ``soft_limit`` under the
-    default reward and keeps it under the training reward; the arguments are the environment's, and live."""
+    default reward and keeps it under the training reward; the names are the environment's arguments (what they
+    do to the dynamics: tests/envs/test_soft_limit.py)."""
     kw = {"control_mode": "current", "soft_limit": None, "w_stop": 10.0}
     assert scoring_env_kwargs(FT, kw)[0] == {"control_mode": "current"}
     assert scoring_env_kwargs(FT, kw)[1] == {"soft_limit": None, "w_stop": 10.0}

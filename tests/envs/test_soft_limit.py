@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import vsa_gym  # noqa: F401  (registers the environments)
+from vsa_gym.devices.elpas import model as em
 from vsa_gym.devices.elpas.task import (
     SOFT_LIMIT_BAND,
     SOFT_LIMIT_DECEL_DEFAULT,
@@ -53,7 +54,7 @@ def _rollout(env: gym.Env, pattern: str, steps: int = 3000, seed: int = 3) -> di
         a = float(rng.choice([-1.0, 1.0])) if burst else (a if pattern == "bursts" else float(pattern))
         obs, r, term, trunc, info = env.step(np.array([a], dtype=np.float32))
         finite &= bool(np.all(np.isfinite(obs)) and np.isfinite(r))
-        peak = max(peak, abs(float(env.unwrapped.task.s["x"][0, 0])))
+        peak = max(peak, abs(float(env.unwrapped.task.s["x"][0, em.GAMMA])))
         if term or trunc:
             break
     return {"steps": k + 1, "terminated": bool(term), "peak": peak, "margin": float(info["margin_gamma_stop"]),
