@@ -9,6 +9,12 @@ returns, and at how many evaluations some validation episode was shorter than th
 tracking tasks: ended on a constraint; on the throw also the release, the task's own end).  The returns are those
 of the run's own selection (its training reward, failures charged as its ``--eval-kwargs`` said); the best one is
 found by the selection's own rule (``agents.sweep.best_step``).
+
+``--failure-rate R`` also rescores the validation as if a failure had been charged ``R`` per skipped step
+instead of the run's own rate (its ``--eval-kwargs``, else its training ``env_kwargs``): an episode of ``L``
+steps that ended before the time limit ``T`` gains ``(rate - R) (T - L)``; the line then also gives the
+checkpoint the selection would have kept under ``R``.  Only for runs whose failure rate is stated (the eLPAS
+tasks): elsewhere a short episode need not be a failure (the throw's release).
 """
 
 from __future__ import annotations
@@ -20,8 +26,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
+import vsa_gym  # noqa: F401  (registers the environments gym.spec reads)
+from agents.common import env_name, read_yaml
 from agents.sweep import best_step
 
 
@@ -46,24 +55,72 @@ def curve(run: str | os.PathLike[str]) -> dict[str, Any]:
             "best_step": int(t[k]), "evaluations_with_ended": ended}
 
 
+def run_failure_charge(run: str | os.PathLike[str]) -> tuple[float, int]:
+    """The failure rate a run's validation charged and its episodes' time limit ``T``, from the run's
+    ``args.yml`` / ``config.yml``; ``ValueError`` when the run does not state a rate."""
+    run = Path(run)
+    args_f = next(run.glob("*/args.yml"), None)
+    if args_f is None:
+        raise FileNotFoundError(f"{run} holds no */args.yml (not a run folder of agents.train)")
+    args = read_yaml(args_f)
+    env_id = str(args["env"])
+    cfg = read_yaml(run / env_name(env_id) / "config.yml") if (run / env_name(env_id) / "config.yml").exists() else {}
+    env_kwargs = cfg.get("env_kwargs") or {}
+    if isinstance(env_kwargs, str):
+        from agents.common import eval_zoo_expr
+
+        env_kwargs = eval_zoo_expr(env_kwargs)
+    kw = {**dict(env_kwargs), **dict(args.get("eval_kwargs") or {})}
+    if kw.get("failure_rate") is None:
+        raise ValueError(f"{run}: its validation states no failure_rate (neither --eval-kwargs nor env_kwargs), "
+                         "so its short episodes cannot be rescored")
+    steps = kw.get("episode_steps") or gym.spec(env_id).max_episode_steps
+    return float(kw["failure_rate"]), int(steps)
+
+
+def rescore(run: str | os.PathLike[str], c: dict[str, Any], rate: float) -> dict[str, Any]:
+    """``c`` (from :func:`curve`) with its mean returns rescored at failure ``rate`` (module docstring):
+    ``{mean_return, best_return, best_step, rate, own_rate}``."""
+    own, steps = run_failure_charge(run)
+    with np.load(Path(run) / "evaluations.npz") as ev:
+        r = np.asarray(ev["results"], dtype=float).reshape(len(c["timesteps"]), -1)
+        lengths = np.asarray(ev["ep_lengths"], dtype=float).reshape(r.shape)
+    mean = (r + (own - rate) * np.where(lengths < steps, steps - lengths, 0.0)).mean(axis=1)
+    k = int(np.argmax(mean))
+    return {"mean_return": mean.tolist(), "best_return": float(mean[k]), "best_step": int(c["timesteps"][k]),
+            "rate": float(rate), "own_rate": own}
+
+
 def line(c: dict[str, Any], last: int) -> str:
     points = list(zip(c["timesteps"], c["mean_return"], strict=True))[-last:]
     tail = ", ".join(f"{t // 1000}k: {m:.1f}" for t, m in points)
     ended = "" if c["evaluations_with_ended"] is None else f"; {c['evaluations_with_ended']} with an ended episode"
-    return (f"{c['run']}: {len(c['timesteps'])} evaluations, best {c['best_return']:.1f} at {c['best_step']}"
-            f"{ended} | last {last}: {tail}")
+    out = (f"{c['run']}: {len(c['timesteps'])} evaluations, best {c['best_return']:.1f} at {c['best_step']}"
+           f"{ended} | last {last}: {tail}")
+    if "rescored" in c:
+        rs = c["rescored"]
+        out += (f" | failure_rate {rs['own_rate']:g} -> {rs['rate']:g}: best {rs['best_return']:.1f} at "
+                f"{rs['best_step']}")
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m benchmarks.validation_curves", description=__doc__.split("\n")[0])
     ap.add_argument("runs", nargs="+", help="run folders (each holding evaluations.npz)")
     ap.add_argument("--last", type=int, default=8, help="how many of the latest evaluations to list")
+    ap.add_argument("--failure-rate", type=float, default=None, metavar="R",
+                    help="also rescore the validation with a failure charged R per skipped step (eLPAS runs)")
     a = ap.parse_args(argv)
     if a.last < 1:
         ap.error(f"--last must be >= 1, got {a.last}")
+    if a.failure_rate is not None and not (np.isfinite(a.failure_rate) and a.failure_rate >= 0):
+        ap.error(f"--failure-rate must be a finite rate >= 0, got {a.failure_rate}")
     for run in a.runs:
         try:
-            print(line(curve(run), a.last))
+            c = curve(run)
+            if a.failure_rate is not None:
+                c["rescored"] = rescore(run, c, a.failure_rate)
+            print(line(c, a.last))
         except (FileNotFoundError, ValueError) as e:
             print(f"error: {e}", file=sys.stderr)
             return 2
