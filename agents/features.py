@@ -11,7 +11,10 @@ signal: for each named channel ``c`` it appends::
 (a first-order high-pass of the integral, corner ``f_leak``; ``dt`` is the environment's ``control_dt``),
 returned as ``g z`` with ``g = (1 - lambda) / dt`` (about ``2 pi f_leak``): a unit DC gain, so the feature
 carries the channel's size (a constant input ``u`` settles at ``u``; the integral of ``body_accel`` is the
-body speed times ``g``).  The feature is a fixed filter of the agent's own observations, like frame stacking:
+body speed times ``g``).  With ``lp_hz`` the feature is also low-passed,
+``y_k = y_{k-1} + beta (g z_k - y_{k-1})``, ``beta = 1 - exp(-2 pi f_lp dt)``, ``y = 0`` at an episode start:
+the skyhook baseline's own speed estimate (its ``hp_hz`` 0.3 Hz and ``lp_hz`` 1.5 Hz), aimed at the body mode
+rather than the wheel hop.  The feature is a fixed filter of the agent's own observations, like frame stacking:
 it adds no controller and no information the sensors do not hold, so an agent with it is still a pure
 learned policy.  It is an SB3 ``VecEnvWrapper`` (rl-zoo3's ``vec_env_wrapper``, applied before
 ``VecNormalize``), usable after :class:`agents.residual.ResidualVecEnv` in the same list;
@@ -43,10 +46,12 @@ def _task(env: Any) -> Any:
 class LeakyIntegral:
     """The filter of the module docstring on ``n`` rows: ``update(obs (n, d)) -> features (n, k)``.
 
-    ``channels``: observation names of the task (``task.obs_channels``); ``dt`` (s); ``leak_hz`` (Hz, > 0).
+    ``channels``: observation names of the task (``task.obs_channels``); ``dt`` (s); ``leak_hz`` (Hz, > 0);
+    ``lp_hz`` (Hz, > 0, or ``None``: no low-pass).
     """
 
-    def __init__(self, names: Sequence[str], channels: Sequence[str], dt: float, leak_hz: float) -> None:
+    def __init__(self, names: Sequence[str], channels: Sequence[str], dt: float, leak_hz: float,
+                 lp_hz: float | None = None) -> None:
         if not channels:
             raise ValueError("channels must name at least one observation channel")
         missing = [c for c in channels if c not in names]
@@ -54,50 +59,64 @@ class LeakyIntegral:
             raise ValueError(f"unknown observation channel(s) {missing}; the environment has {list(names)}")
         if not (np.isfinite(leak_hz) and leak_hz > 0):
             raise ValueError(f"leak_hz must be a finite corner frequency > 0 Hz, got {leak_hz!r}")
+        if lp_hz is not None and not (np.isfinite(lp_hz) and lp_hz > 0):
+            raise ValueError(f"lp_hz must be a finite corner frequency > 0 Hz (or None: no low-pass), got {lp_hz!r}")
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be > 0 s, got {dt!r}")
         self.idx = np.array([list(names).index(c) for c in channels], dtype=np.intp)
         self.dt, self.leak_hz = float(dt), float(leak_hz)
         self.leak = float(np.exp(-2.0 * np.pi * self.leak_hz * self.dt))
         self.gain = (1.0 - self.leak) / self.dt  # unit DC gain (about 2 pi leak_hz)
+        self.lp_hz = None if lp_hz is None else float(lp_hz)
+        self.beta = 1.0 if lp_hz is None else 1.0 - float(np.exp(-2.0 * np.pi * float(lp_hz) * self.dt))
         self.z = np.zeros((0, self.idx.size))
+        self.y = np.zeros((0, self.idx.size))
 
     def reset(self, n: int | None = None, rows: np.ndarray | None = None) -> None:
         """Zero every row (``n`` rows) or only ``rows``."""
         if rows is None:
             self.z = np.zeros((self.z.shape[0] if n is None else int(n), self.idx.size))
+            self.y = np.zeros_like(self.z)
         else:
             self.z[rows] = 0.0
+            self.y[rows] = 0.0
+
+    def _next(self, z: np.ndarray, y: np.ndarray, o: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        z = self.leak * z + self.dt * o[:, self.idx]
+        return z, (self.gain * z if self.lp_hz is None else y + self.beta * (self.gain * z - y))
 
     def update(self, obs: np.ndarray) -> np.ndarray:
         o = np.atleast_2d(np.asarray(obs, dtype=np.float64))
         if self.z.shape[0] != o.shape[0]:
             self.reset(o.shape[0])
-        self.z = self.leak * self.z + self.dt * o[:, self.idx]
-        return (self.gain * self.z).astype(np.float32)
+        self.z, self.y = self._next(self.z, self.y, o)
+        return self.y.astype(np.float32)
 
     def peek(self, obs: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """The features ``rows`` would have after ``obs`` (their observation), without updating the state."""
-        z = self.leak * self.z[rows] + self.dt * np.atleast_2d(obs)[:, self.idx]
-        return (self.gain * z).astype(np.float32)
+        o = np.atleast_2d(np.asarray(obs, dtype=np.float64))
+        return self._next(self.z[rows], self.y[rows], o)[1].astype(np.float32)
 
     def bounds(self, low: np.ndarray, high: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of the features: the channels' own (a unit-DC-gain first-order filter of a bounded input stays
-        within its bounds)."""
+        within its bounds, and so does a unit-DC-gain low-pass of it)."""
         lo = np.asarray(low, dtype=np.float64)[self.idx]
         hi = np.asarray(high, dtype=np.float64)[self.idx]
         return lo.astype(np.float32), hi.astype(np.float32)
 
 
 class LeakyIntegralVecEnv(VecEnvWrapper):
-    """Observation + leaky integrals of ``channels`` (module docstring).  ``leak_hz``: corner (Hz)."""
+    """Observation + leaky integrals of ``channels`` (module docstring).  ``leak_hz``: corner (Hz); ``lp_hz``:
+    the optional low-pass corner (Hz)."""
 
-    def __init__(self, venv: VecEnv, channels: Sequence[str] = ("body_accel",), leak_hz: float = 0.3) -> None:
+    def __init__(self, venv: VecEnv, channels: Sequence[str] = ("body_accel",), leak_hz: float = 0.3,
+                 lp_hz: float | None = None) -> None:
         env = venv.get_attr("unwrapped", [0])[0]
         task = _task(env)
         names = [c.name for c in task.obs_channels]
-        self.filter = LeakyIntegral(names, list(channels), float(task.control_dt), float(leak_hz))
-        self.channels, self.leak_hz = tuple(channels), float(leak_hz)
+        self.filter = LeakyIntegral(names, list(channels), float(task.control_dt), float(leak_hz),
+                                    None if lp_hz is None else float(lp_hz))
+        self.channels, self.leak_hz, self.lp_hz = tuple(channels), float(leak_hz), self.filter.lp_hz
         obs = venv.observation_space
         lo, hi = self.filter.bounds(obs.low, obs.high)
         space = gym.spaces.Box(np.concatenate([obs.low, lo]).astype(np.float32),
@@ -146,10 +165,12 @@ def feature_policy(agent_factory: Callable[[Any], Any], config: Mapping[str, Any
     """``policy_factory(env)``: the agent built by ``agent_factory(env)`` behind the filter of ``config``."""
     channels = list(config.get("channels", ("body_accel",)))
     leak_hz = float(config.get("leak_hz", 0.3))
+    lp_hz = config.get("lp_hz")
 
     def make(env: Any) -> FeaturePolicy:
         task = _task(env)
-        filt = LeakyIntegral([c.name for c in task.obs_channels], channels, float(task.control_dt), leak_hz)
+        filt = LeakyIntegral([c.name for c in task.obs_channels], channels, float(task.control_dt), leak_hz,
+                             None if lp_hz is None else float(lp_hz))
         return FeaturePolicy(agent_factory(env), filt)
 
     return make

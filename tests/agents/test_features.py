@@ -31,11 +31,36 @@ def test_filter_is_a_scaled_leaky_integral() -> None:
     assert hi[0] >= const.max() and lo[0] == -hi[0]
 
 
+def test_low_pass_is_the_skyhook_speed_estimate() -> None:
+    """With ``lp_hz`` the feature is the leaky integral (unit DC gain) behind a first-order low-pass: the
+    cascade of the two recursions, checked against scipy; ``peek`` gives what ``update`` then returns."""
+    dt, f, f_lp = 2e-3, 0.3, 1.5
+    filt = LeakyIntegral(["a", "b"], ["b"], dt, f, lp_hz=f_lp)
+    u = np.random.default_rng(1).normal(size=(600, 2))
+    filt.reset(1)
+    got = []
+    for k in range(len(u)):
+        nxt = filt.peek(u[k][None], np.array([0]))
+        got.append(filt.update(u[k][None])[0])
+        np.testing.assert_array_equal(nxt[0], got[-1])
+    lam, beta = np.exp(-2 * np.pi * f * dt), 1 - np.exp(-2 * np.pi * f_lp * dt)
+    v = (1 - lam) / dt * signal.lfilter([dt], [1.0, -lam], u[:, 1])
+    want = signal.lfilter([beta], [1.0, -(1 - beta)], v)
+    np.testing.assert_allclose(np.array(got)[:, 0], want, rtol=1e-5, atol=1e-7)
+    plain = LeakyIntegral(["a", "b"], ["b"], dt, f)
+    assert not np.allclose([plain.update(x[None])[0, 0] for x in u], want, rtol=1e-3)  # the low-pass acts
+    filt.reset(1)
+    const = np.stack([filt.update(np.array([[0.0, 3.0]]))[0] for _ in range(20000)])
+    assert const[-1, 0] == pytest.approx(3.0, rel=1e-4)  # still a unit DC gain
+
+
 def test_bad_channel_and_corner_are_named() -> None:
     with pytest.raises(ValueError, match="unknown observation channel.*'nope'"):
         LeakyIntegral(["a"], ["nope"], 1e-3, 0.3)
     with pytest.raises(ValueError, match="leak_hz"):
         LeakyIntegral(["a"], ["a"], 1e-3, 0.0)
+    with pytest.raises(ValueError, match="lp_hz"):
+        LeakyIntegral(["a"], ["a"], 1e-3, 0.3, lp_hz=float("nan"))
 
 
 def test_wrapper_restarts_ended_rows_and_keeps_their_last_integral() -> None:
@@ -66,12 +91,13 @@ def _feature_agent(obs: np.ndarray) -> np.ndarray:
     return np.clip(-2.0 * o[:, -1:], -1.0, 1.0).astype(np.float32)  # acts on the feature only
 
 
-@pytest.mark.parametrize("residual", [False, True])
-def test_evaluation_rebuilds_what_training_saw(residual: bool) -> None:
+@pytest.mark.parametrize(("residual", "lp_hz"), [(False, None), (True, None), (False, 1.5)])
+def test_evaluation_rebuilds_what_training_saw(residual: bool, lp_hz: float | None) -> None:
     steps, seeds = 80, [5]
     wrappers = ([{"agents.residual.ResidualVecEnv": {"baseline": "skyhook", "scale": 0.5}}] if residual else [])
-    wrappers.append(FEATURE)
-    assert feature_config(wrappers) == FEATURE[FEATURE_CLASS]
+    feature = {FEATURE_CLASS: {**FEATURE[FEATURE_CLASS], **({} if lp_hz is None else {"lp_hz": lp_hz})}}
+    wrappers.append(feature)
+    assert feature_config(wrappers) == feature[FEATURE_CLASS]
     venv = make_train_env(QC, 1, seeds[0], CURRENT, None, vec_env_wrapper=wrappers)
     obs, ret = venv.reset(), 0.0
     assert obs.shape == (1, 9 if residual else 8)
