@@ -225,9 +225,9 @@ SELECTION_KWARGS: dict[str, dict[str, Any]] = {
 step it skips, so a checkpoint that ends validation episodes early cannot be chosen for collecting less negative
 reward.  Force tracking: about twice what the zero action pays per step.  Quarter car: what the passive car pays
 per step (0.3): two of the 8 validation roads lift the tyre off under every policy, the passive car and the
-skyhook included (docs/agents.md, "Selection on the quarter car"), and a larger charge made the checkpoint that
-lasted longest on those two roads win over every comfort difference.  The vsaUT-II position task charges a
-failure by default.  Training keeps the environments' defaults."""
+skyhook included, and a larger charge made the checkpoint that lasted longest on those two roads win over every
+comfort difference (docs/agents.md, "Quarter car: selection and a longer horizon").  The vsaUT-II position task
+charges a failure by default.  Training keeps the environments' defaults."""
 
 
 def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = None) -> dict[str, Any]:
