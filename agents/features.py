@@ -68,7 +68,7 @@ class LeakyIntegral:
         self.leak = float(np.exp(-2.0 * np.pi * self.leak_hz * self.dt))
         self.gain = (1.0 - self.leak) / self.dt  # unit DC gain (about 2 pi leak_hz)
         self.lp_hz = None if lp_hz is None else float(lp_hz)
-        self.beta = 1.0 if lp_hz is None else 1.0 - float(np.exp(-2.0 * np.pi * float(lp_hz) * self.dt))
+        self.beta = None if lp_hz is None else 1.0 - float(np.exp(-2.0 * np.pi * self.lp_hz * self.dt))
         self.z = np.zeros((0, self.idx.size))
         self.y = np.zeros((0, self.idx.size))
 
@@ -83,7 +83,7 @@ class LeakyIntegral:
 
     def _next(self, z: np.ndarray, y: np.ndarray, o: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         z = self.leak * z + self.dt * o[:, self.idx]
-        return z, (self.gain * z if self.lp_hz is None else y + self.beta * (self.gain * z - y))
+        return z, (self.gain * z if self.beta is None else y + self.beta * (self.gain * z - y))
 
     def update(self, obs: np.ndarray) -> np.ndarray:
         o = np.atleast_2d(np.asarray(obs, dtype=np.float64))
@@ -114,9 +114,8 @@ class LeakyIntegralVecEnv(VecEnvWrapper):
         env = venv.get_attr("unwrapped", [0])[0]
         task = _task(env)
         names = [c.name for c in task.obs_channels]
-        self.filter = LeakyIntegral(names, list(channels), float(task.control_dt), float(leak_hz),
-                                    None if lp_hz is None else float(lp_hz))
-        self.channels, self.leak_hz, self.lp_hz = tuple(channels), float(leak_hz), self.filter.lp_hz
+        self.filter = LeakyIntegral(names, list(channels), float(task.control_dt), float(leak_hz), lp_hz)
+        self.channels, self.leak_hz = tuple(channels), float(leak_hz)
         obs = venv.observation_space
         lo, hi = self.filter.bounds(obs.low, obs.high)
         space = gym.spaces.Box(np.concatenate([obs.low, lo]).astype(np.float32),
@@ -169,8 +168,7 @@ def feature_policy(agent_factory: Callable[[Any], Any], config: Mapping[str, Any
 
     def make(env: Any) -> FeaturePolicy:
         task = _task(env)
-        filt = LeakyIntegral([c.name for c in task.obs_channels], channels, float(task.control_dt), leak_hz,
-                             None if lp_hz is None else float(lp_hz))
+        filt = LeakyIntegral([c.name for c in task.obs_channels], channels, float(task.control_dt), leak_hz, lp_hz)
         return FeaturePolicy(agent_factory(env), filt)
 
     return make

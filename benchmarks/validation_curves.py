@@ -30,12 +30,15 @@ import gymnasium as gym
 import numpy as np
 
 import vsa_gym  # noqa: F401  (registers the environments gym.spec reads)
-from agents.common import env_name, read_yaml
+from agents.common import run_args, run_env_kwargs
+from agents.evaluate import scoring_env_kwargs
 from agents.sweep import best_step
 
 
 def curve(run: str | os.PathLike[str]) -> dict[str, Any]:
-    """``{run, timesteps, mean_return, best_return, best_step, evaluations_with_ended}`` of one run folder."""
+    """``{run, timesteps, mean_return, best_return, best_step, evaluations_with_ended, results, lengths}`` of one
+    run folder (``results`` and ``lengths``: per evaluation and validation episode; ``lengths`` ``None`` when the
+    record has none)."""
     f = Path(run) / "evaluations.npz"
     if not f.is_file():
         raise FileNotFoundError(f"{f} not found: train with --eval-freq > 0, or name the run's folder")
@@ -52,25 +55,21 @@ def curve(run: str | os.PathLike[str]) -> dict[str, Any]:
         longest = lengths.max()
         ended = int(np.sum(np.any(lengths < longest, axis=1)))
     return {"run": str(run), "timesteps": t.tolist(), "mean_return": mean.tolist(), "best_return": float(mean[k]),
-            "best_step": int(t[k]), "evaluations_with_ended": ended}
+            "best_step": int(t[k]), "evaluations_with_ended": ended, "results": r, "lengths": lengths}
 
 
 def run_failure_charge(run: str | os.PathLike[str]) -> tuple[float, int]:
-    """The failure rate a run's validation charged and its episodes' time limit ``T``, from the run's
-    ``args.yml`` / ``config.yml``; ``ValueError`` when the run does not state a rate."""
-    run = Path(run)
-    args_f = next(run.glob("*/args.yml"), None)
+    """The failure rate a run's validation charged and its episodes' time limit ``T``: the validation
+    environment's arguments resolved as the selection resolves them (:func:`agents.evaluate.scoring_env_kwargs`
+    of the run's ``env_kwargs``, ``eval_reward`` and ``eval_kwargs``); ``ValueError`` when they state no rate."""
+    args_f = next(Path(run).glob("*/args.yml"), None)
     if args_f is None:
         raise FileNotFoundError(f"{run} holds no */args.yml (not a run folder of agents.train)")
-    args = read_yaml(args_f)
+    params_dir = args_f.parent
+    args = run_args(params_dir)
     env_id = str(args["env"])
-    cfg = read_yaml(run / env_name(env_id) / "config.yml") if (run / env_name(env_id) / "config.yml").exists() else {}
-    env_kwargs = cfg.get("env_kwargs") or {}
-    if isinstance(env_kwargs, str):
-        from agents.common import eval_zoo_expr
-
-        env_kwargs = eval_zoo_expr(env_kwargs)
-    kw = {**dict(env_kwargs), **dict(args.get("eval_kwargs") or {})}
+    kw = scoring_env_kwargs(env_id, run_env_kwargs(params_dir), args.get("eval_reward", "training"),
+                            args.get("eval_kwargs"))[0]
     if kw.get("failure_rate") is None:
         raise ValueError(f"{run}: its validation states no failure_rate (neither --eval-kwargs nor env_kwargs), "
                          "so its short episodes cannot be rescored")
@@ -81,12 +80,12 @@ def run_failure_charge(run: str | os.PathLike[str]) -> tuple[float, int]:
 def rescore(run: str | os.PathLike[str], c: dict[str, Any], rate: float) -> dict[str, Any]:
     """``c`` (from :func:`curve`) with its mean returns rescored at failure ``rate`` (module docstring):
     ``{mean_return, best_return, best_step, rate, own_rate}``."""
+    if c["lengths"] is None:
+        raise ValueError(f"{run}: its evaluations.npz holds no episode lengths, so nothing can be rescored")
     own, steps = run_failure_charge(run)
-    with np.load(Path(run) / "evaluations.npz") as ev:
-        r = np.asarray(ev["results"], dtype=float).reshape(len(c["timesteps"]), -1)
-        lengths = np.asarray(ev["ep_lengths"], dtype=float).reshape(r.shape)
-    mean = (r + (own - rate) * np.where(lengths < steps, steps - lengths, 0.0)).mean(axis=1)
-    k = int(np.argmax(mean))
+    lengths = np.asarray(c["lengths"], dtype=float)
+    mean = (c["results"] + (own - rate) * np.where(lengths < steps, steps - lengths, 0.0)).mean(axis=1)
+    k = int(np.argmax(mean))  # the first highest, as the selection keeps it
     return {"mean_return": mean.tolist(), "best_return": float(mean[k]), "best_step": int(c["timesteps"][k]),
             "rate": float(rate), "own_rate": own}
 
