@@ -15,6 +15,11 @@ instead of the run's own rate (its ``--eval-kwargs``, else its training ``env_kw
 steps that ended before the time limit ``T`` gains ``(rate - R) (T - L)``; the line then also gives the
 checkpoint the selection would have kept under ``R``.  Only for runs whose failure rate is stated (the eLPAS
 tasks): elsewhere a short episode need not be a failure (the throw's release).
+
+``--return-scale`` also prints the scale PPO divided every training reward by at the end of the run: the standard
+deviation of the discounted return in the run's final ``VecNormalize`` statistics (``ret_rms``, a running
+estimate over every step of the run, ``ENV_NAME/vecnormalize.pkl``).  One early failure charged a large lump
+stays in that estimate for the rest of the run and shrinks every later reward the learner sees.
 """
 
 from __future__ import annotations
@@ -90,6 +95,23 @@ def rescore(run: str | os.PathLike[str], c: dict[str, Any], rate: float) -> dict
             "rate": float(rate), "own_rate": own}
 
 
+def return_scale(run: str | os.PathLike[str]) -> float:
+    """The standard deviation of the discounted return in a run's final ``VecNormalize`` statistics (module
+    docstring); ``FileNotFoundError`` naming the file when the run kept none (trained without ``normalize``)."""
+    import pickle
+
+    f = next(Path(run).glob("*/vecnormalize.pkl"), None)
+    if f is None:
+        raise FileNotFoundError(f"{run} holds no */vecnormalize.pkl (a run trained without normalize, or not a run "
+                                "folder of agents.train)")
+    with open(f, "rb") as fh:
+        vn = pickle.load(fh)
+    rms = getattr(vn, "ret_rms", None)
+    if rms is None:
+        raise ValueError(f"{f} holds no return statistics (ret_rms)")
+    return float(np.sqrt(np.asarray(rms.var, dtype=float)).reshape(-1)[0])
+
+
 def line(c: dict[str, Any], last: int) -> str:
     points = list(zip(c["timesteps"], c["mean_return"], strict=True))[-last:]
     tail = ", ".join(f"{t // 1000}k: {m:.1f}" for t, m in points)
@@ -100,6 +122,8 @@ def line(c: dict[str, Any], last: int) -> str:
         rs = c["rescored"]
         out += (f" | failure_rate {rs['own_rate']:g} -> {rs['rate']:g}: best {rs['best_return']:.1f} at "
                 f"{rs['best_step']}")
+    if "return_scale" in c:
+        out += f" | return scale {c['return_scale']:.1f}"
     return out
 
 
@@ -109,6 +133,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--last", type=int, default=8, help="how many of the latest evaluations to list")
     ap.add_argument("--failure-rate", type=float, default=None, metavar="R",
                     help="also rescore the validation with a failure charged R per skipped step (eLPAS runs)")
+    ap.add_argument("--return-scale", action="store_true",
+                    help="also print the return scale of the run's final VecNormalize statistics")
     a = ap.parse_args(argv)
     if a.last < 1:
         ap.error(f"--last must be >= 1, got {a.last}")
@@ -119,6 +145,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             c = curve(run)
             if a.failure_rate is not None:
                 c["rescored"] = rescore(run, c, a.failure_rate)
+            if a.return_scale:
+                c["return_scale"] = return_scale(run)
             print(line(c, a.last))
         except (FileNotFoundError, ValueError) as e:
             print(f"error: {e}", file=sys.stderr)

@@ -70,3 +70,28 @@ def test_rescoring_needs_a_stated_rate(tmp_path: Path, capsys: pytest.CaptureFix
     assert "states no failure_rate" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main([str(run), "--failure-rate", "-1"])
+
+
+def test_return_scale_reads_the_final_normalizer(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The scale is the square root of VecNormalize's return variance, read from the run's own statistics; a run
+    without them is named."""
+    from stable_baselines3.common.running_mean_std import RunningMeanStd
+
+    from benchmarks.validation_curves import return_scale
+
+    run = tmp_path / "ppo" / "ps_1"
+    _write(run, [[-5.0], [-3.0]], [[50], [50]])
+    assert main([str(run), "--return-scale"]) == 2
+    assert "holds no */vecnormalize.pkl" in capsys.readouterr().err
+
+    import gymnasium as gym
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    vn = VecNormalize(DummyVecEnv([lambda: gym.make("Pendulum-v1")]))
+    vn.ret_rms = RunningMeanStd(shape=())
+    vn.ret_rms.update(np.array([0.0, -300.0, 0.0, -300.0]))  # variance 150^2
+    (run / "env").mkdir()
+    vn.save(str(run / "env" / "vecnormalize.pkl"))
+    assert return_scale(run) == pytest.approx(150.0, rel=1e-3)
+    assert main([str(run), "--return-scale"]) == 0
+    assert "| return scale 150.0" in capsys.readouterr().out
