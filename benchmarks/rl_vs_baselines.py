@@ -220,6 +220,7 @@ RESIDUAL_HYPERPARAMS = REPO / "agents" / "hyperparams" / "ppo_residual.yml"
 SELECTION_KWARGS: dict[str, dict[str, Any]] = {
     "vsa_gym/ELPAS-ForceTracking-v0": {"failure_rate": 2.0},
     "vsa_gym/ELPAS-QuarterCar-v0": {"failure_rate": 0.3},
+    "vsa_gym/VsaUT2-PositionStiffness-v0": {"failure_rate": None},
 }
 """Arguments of the periodic-evaluation env (``--select best``): on the eLPAS tasks a failure also costs each
 step it skips, so a checkpoint that ends validation episodes early cannot be chosen for collecting less negative
@@ -227,7 +228,8 @@ reward.  Force tracking: about twice what the zero action pays per step.  Quarte
 per step (0.3): two of the 8 validation roads lift the tyre off under every policy, the passive car and the
 skyhook included, and a larger charge made the checkpoint that lasted longest on those two roads win over every
 comfort difference (docs/agents.md, "Quarter car: selection and a longer horizon").  The vsaUT-II position task
-charges a failure by default.  Training keeps the environments' defaults."""
+charges a failure by default (about 129 per skipped step); ``None`` restores that default where the agent trained
+with a smaller charge (``ppo.yml``).  Training keeps each entry's own ``env_kwargs``."""
 
 
 def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = None) -> dict[str, Any]:
