@@ -76,8 +76,9 @@ def run_failure_charge(run: str | os.PathLike[str]) -> tuple[float, int]:
     kw = scoring_env_kwargs(env_id, run_env_kwargs(params_dir), args.get("eval_reward", "training"),
                             args.get("eval_kwargs"))[0]
     if kw.get("failure_rate") is None:
-        raise ValueError(f"{run}: its validation states no failure_rate (neither --eval-kwargs nor env_kwargs), "
-                         "so its short episodes cannot be rescored")
+        raise ValueError(f"{run}: its validation states no failure_rate (neither --eval-kwargs nor env_kwargs give "
+                         "a number: the environment's own default charge, if it has one), so its short episodes "
+                         "cannot be rescored")
     steps = kw.get("episode_steps") or gym.spec(env_id).max_episode_steps
     return float(kw["failure_rate"]), int(steps)
 

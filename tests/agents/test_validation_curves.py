@@ -5,10 +5,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
+from stable_baselines3.common.running_mean_std import RunningMeanStd
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-from benchmarks.validation_curves import curve, main
+from benchmarks.validation_curves import curve, main, return_scale
 
 
 def _write(run: Path, results: list[list[float]], lengths: list[list[int]]) -> None:
@@ -75,17 +78,10 @@ def test_rescoring_needs_a_stated_rate(tmp_path: Path, capsys: pytest.CaptureFix
 def test_return_scale_reads_the_final_normalizer(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The scale is the square root of VecNormalize's return variance, read from the run's own statistics; a run
     without them is named."""
-    from stable_baselines3.common.running_mean_std import RunningMeanStd
-
-    from benchmarks.validation_curves import return_scale
-
     run = tmp_path / "ppo" / "ps_1"
     _write(run, [[-5.0], [-3.0]], [[50], [50]])
     assert main([str(run), "--return-scale"]) == 2
     assert "holds no */vecnormalize.pkl" in capsys.readouterr().err
-
-    import gymnasium as gym
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
     vn = VecNormalize(DummyVecEnv([lambda: gym.make("Pendulum-v1")]))
     vn.ret_rms = RunningMeanStd(shape=())
