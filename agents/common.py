@@ -397,6 +397,15 @@ def checkpoints(save_path: str | os.PathLike[str], off_policy: bool, normalized:
     return sorted(out)
 
 
+def read_vecnormalize(path: str | os.PathLike[str]) -> Any:
+    """Saved ``VecNormalize`` statistics without an environment attached (what ``VecNormalize.load`` unpickles
+    before it attaches one): enough to normalise observations by hand or to read ``obs_rms`` / ``ret_rms``."""
+    import pickle
+
+    with open(path, "rb") as fh:
+        return pickle.load(fh)
+
+
 def vecnormalize_for(model_path: str | os.PathLike[str]) -> Path | None:
     """The VecNormalize statistics that belong to a model file of the layout (``None`` if there are none)."""
     p = Path(model_path)

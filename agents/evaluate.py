@@ -44,6 +44,7 @@ from agents.common import (
     algo_class,
     algo_of_model,
     eval_zoo_expr,
+    read_vecnormalize,
     run_config,
     run_env_kwargs,
     run_params_dir,
@@ -150,16 +151,13 @@ class SB3Policy:
 def load_agent(model_path: str | os.PathLike[str], algo: str | None = None,
                vecnormalize: str | os.PathLike[str] | None = None) -> SB3Policy:
     """Load a model .zip of the run layout with its VecNormalize statistics as an :class:`SB3Policy`."""
-    import pickle
-
     model_path = Path(model_path)
     algo = algo or algo_of_model(model_path)
     model = algo_class(algo).load(str(model_path), device="cpu")
     vn_path = Path(vecnormalize) if vecnormalize is not None else vecnormalize_for(model_path)
     vn = None
     if vn_path is not None:
-        with open(vn_path, "rb") as fh:
-            vn = pickle.load(fh)
+        vn = read_vecnormalize(vn_path)
         vn.training = False
     return SB3Policy(model, vn)
 

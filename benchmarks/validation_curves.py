@@ -35,7 +35,7 @@ import gymnasium as gym
 import numpy as np
 
 import vsa_gym  # noqa: F401  (registers the environments gym.spec reads)
-from agents.common import run_args, run_env_kwargs
+from agents.common import read_vecnormalize, run_args, run_env_kwargs
 from agents.evaluate import scoring_env_kwargs
 from agents.sweep import best_step
 
@@ -99,15 +99,11 @@ def rescore(run: str | os.PathLike[str], c: dict[str, Any], rate: float) -> dict
 def return_scale(run: str | os.PathLike[str]) -> float:
     """The standard deviation of the discounted return in a run's final ``VecNormalize`` statistics (module
     docstring); ``FileNotFoundError`` naming the file when the run kept none (trained without ``normalize``)."""
-    import pickle
-
     f = next(Path(run).glob("*/vecnormalize.pkl"), None)
     if f is None:
         raise FileNotFoundError(f"{run} holds no */vecnormalize.pkl (a run trained without normalize, or not a run "
                                 "folder of agents.train)")
-    with open(f, "rb") as fh:
-        vn = pickle.load(fh)
-    rms = getattr(vn, "ret_rms", None)
+    rms = getattr(read_vecnormalize(f), "ret_rms", None)
     if rms is None:
         raise ValueError(f"{f} holds no return statistics (ret_rms)")
     return float(np.sqrt(np.asarray(rms.var, dtype=float)).reshape(-1)[0])
