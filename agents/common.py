@@ -171,7 +171,7 @@ def read_hyperparams(algo: str, env_id: str, path: str | os.PathLike[str] | None
     return hp
 
 
-_UNSUPPORTED = ("env_wrapper", "callback", "frame_stack", "monitor_kwargs")
+_UNSUPPORTED = ("env_wrapper", "frame_stack", "monitor_kwargs")
 
 
 def eval_zoo_expr(expr: str) -> Any:
@@ -186,9 +186,9 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
     """rl-zoo3's pre-processing of a hyperparameter entry, split into what our trainer needs.
 
     Returns ``{"model": kwargs of the algorithm, "n_envs", "n_timesteps", "normalize" (None or
-    VecNormalize kwargs), "env_kwargs", "vec_env_wrapper"}`` (the last as written in the YAML, see
-    :func:`wrap_vec_env`).  Keys that rl-zoo3 supports but we do not (gym wrappers, callbacks,
-    frame stacking) raise ``ValueError``.
+    VecNormalize kwargs), "env_kwargs", "vec_env_wrapper", "callback"}`` (the last two as written in the YAML,
+    see :func:`wrap_vec_env` and :func:`make_callbacks`).  Keys that rl-zoo3 supports but we do not (gym
+    wrappers, frame stacking) raise ``ValueError``.
     """
     hp = dict(raw)
     bad = [k for k in _UNSUPPORTED if k in hp]
@@ -205,6 +205,7 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
     if isinstance(hp.get("train_freq"), list):
         hp["train_freq"] = tuple(hp["train_freq"])
     out["vec_env_wrapper"] = hp.pop("vec_env_wrapper", None)
+    out["callback"] = hp.pop("callback", None)
     norm = hp.pop("normalize", False)
     if isinstance(norm, str):
         norm = eval_zoo_expr(norm)
@@ -239,22 +240,43 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
 
 
 # ---------------------------------------------------------------------------------------------- environments
-def wrap_vec_env(venv: Any, spec: Any) -> Any:
-    """Apply an rl-zoo3 ``vec_env_wrapper`` entry: a class path, ``{path: kwargs}``, or a list of these."""
-    import importlib
-
+def class_entries(spec: Any, key: str) -> list[tuple[str, dict[str, Any]]]:
+    """``(class path, kwargs)`` of an rl-zoo3 class entry (``vec_env_wrapper``, ``callback``): a class path,
+    ``{path: kwargs}``, or a list of these; ``key`` names the entry in errors."""
     if spec is None:
-        return venv
+        return []
+    out = []
     for item in spec if isinstance(spec, list) else [spec]:
         if isinstance(item, Mapping):
             if len(item) != 1:
-                raise ValueError(f"vec_env_wrapper: one class per entry, got {item!r}")
+                raise ValueError(f"{key}: one class per entry, got {item!r}")
             path, kwargs = next(iter(item.items()))
         else:
             path, kwargs = item, {}
-        module, _, name = str(path).rpartition(".")
-        venv = getattr(importlib.import_module(module), name)(venv, **dict(kwargs or {}))
+        out.append((str(path), dict(kwargs or {})))
+    return out
+
+
+def _import_class(path: str, key: str) -> Any:
+    import importlib
+
+    module, _, name = path.rpartition(".")
+    try:
+        return getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError, ValueError) as err:
+        raise ValueError(f"{key}: cannot import {path!r} ({err})") from err
+
+
+def wrap_vec_env(venv: Any, spec: Any) -> Any:
+    """Apply an rl-zoo3 ``vec_env_wrapper`` entry: a class path, ``{path: kwargs}``, or a list of these."""
+    for path, kwargs in class_entries(spec, "vec_env_wrapper"):
+        venv = _import_class(path, "vec_env_wrapper")(venv, **kwargs)
     return venv
+
+
+def make_callbacks(spec: Any) -> list[Any]:
+    """The SB3 callbacks of an rl-zoo3 ``callback`` entry (as rl-zoo3's ``get_callback_list`` builds them)."""
+    return [_import_class(path, "callback")(**kwargs) for path, kwargs in class_entries(spec, "callback")]
 
 
 def wrapper_kwargs(spec: Any, class_path: str) -> dict[str, Any] | None:

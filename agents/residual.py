@@ -90,7 +90,7 @@ def residual_config(vec_env_wrapper: Any) -> dict[str, Any] | None:
     return None if kw is None else {**kw, "form": "setpoint"}
 
 
-def _task_env(venv: VecEnv) -> Any:
+def task_env(venv: VecEnv) -> Any:
     """An object with ``.unwrapped.task`` for the baselines' factories (native vector env or rl-zoo3's DummyVecEnv)."""
     env = venv.get_attr("unwrapped", [0])[0]
     if not hasattr(env, "task"):
@@ -124,7 +124,7 @@ class ResidualVecEnv(VecEnvWrapper):
         if not 0.0 < float(scale) <= 2.0:
             raise ValueError(f"scale must lie in (0, 2], got {scale}")
         self.baseline, self.scale = baseline, float(scale)
-        self._env = _task_env(venv)
+        self._env = task_env(venv)
         _check_mode(baseline, self._env.unwrapped.task)
         self._factory = baseline_factory(baseline)
         self.policy = self._factory(self._env)
@@ -222,7 +222,7 @@ class SetpointResidualVecEnv(VecEnvWrapper):
     def __init__(self, venv: VecEnv, baseline: str = "decoupled", channels: Sequence[Sequence[str]] = (),
                  scales: Sequence[float] = ()) -> None:
         self.baseline = baseline
-        self._env = _task_env(venv)
+        self._env = task_env(venv)
         task = self._env.unwrapped.task
         _check_mode(baseline, task)
         self.setpoints = Setpoints([c.name for c in task.obs_channels], channels, scales)

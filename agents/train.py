@@ -62,6 +62,7 @@ from agents.common import (
     checkpoints,
     env_name,
     hyperparams_file,
+    make_callbacks,
     make_train_env,
     new_run_dir,
     process_hyperparams,
@@ -295,7 +296,12 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
         model = cls(env=env, seed=seed, device=device, tensorboard_log=tb, verbose=verbose, **hp["model"])
 
     ckpt_cb = _boundary_checkpoint(save_path, save_freq, off_policy, params_path)
-    cbs = [ckpt_cb, *_callbacks(save_path, n_envs, eval_env, eval_freq, eval_episodes, callbacks, bool(resume))]
+    zoo_cbs = make_callbacks(hp["callback"])  # the hyperparameters' ``callback`` entry, as rl-zoo3 builds it
+    for cb in zoo_cbs:
+        if getattr(cb, "record_path", "") is None:  # e.g. agents.warm_start: its record goes into the run
+            cb.record_path = str(save_path / "warm_start.json")
+    cbs = [ckpt_cb, *zoo_cbs,
+           *_callbacks(save_path, n_envs, eval_env, eval_freq, eval_episodes, callbacks, bool(resume))]
     status = "finished"
     remaining = max(total - int(model.num_timesteps), 0)
     previous = None
