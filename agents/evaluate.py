@@ -149,8 +149,9 @@ class SB3Policy:
 
 
 def load_agent(model_path: str | os.PathLike[str], algo: str | None = None,
-               vecnormalize: str | os.PathLike[str] | None = None) -> SB3Policy:
-    """Load a model .zip of the run layout with its VecNormalize statistics as an :class:`SB3Policy`."""
+               vecnormalize: str | os.PathLike[str] | None = None, deterministic: bool = True) -> SB3Policy:
+    """Load a model .zip of the run layout with its VecNormalize statistics as an :class:`SB3Policy`
+    (``deterministic=False``: it samples its actions, with the exploration noise it was trained with)."""
     model_path = Path(model_path)
     algo = algo or algo_of_model(model_path)
     model = algo_class(algo).load(str(model_path), device="cpu")
@@ -159,7 +160,7 @@ def load_agent(model_path: str | os.PathLike[str], algo: str | None = None,
     if vn_path is not None:
         vn = read_vecnormalize(vn_path)
         vn.training = False
-    return SB3Policy(model, vn)
+    return SB3Policy(model, vn, deterministic)
 
 
 def training_env_kwargs(model_path: str | os.PathLike[str], env_id: str) -> dict[str, Any]:
@@ -224,9 +225,12 @@ def wrapped_policy(agent: Any, vec_env_wrapper: Any) -> Any:
 def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: int = 10,
                    seed_base: int = METRIC_SEED_BASE, algo: str | None = None,
                    vecnormalize: str | os.PathLike[str] | None = None, episode_steps: int | None = None,
-                   env_kwargs: Mapping[str, Any] | None = None, reward: str = "default") -> dict[str, Any]:
+                   env_kwargs: Mapping[str, Any] | None = None, reward: str = "default",
+                   deterministic: bool = True) -> dict[str, Any]:
     """The baselines' metrics of a trained agent on ``episodes`` held-out seeds.
 
+    ``deterministic=False`` samples the actions (the policy's exploration noise, as in training; the noise
+    stream is seeded with ``seed_base``): what the agent's training rollouts look like.
     A residual agent (``vec_env_wrapper`` of :mod:`agents.residual` in its ``config.yml``) is
     evaluated as the composition baseline + scaled correction it was trained as.  ``reward="default"``
     drops the reward-only training arguments (module docstring), ``"training"`` keeps them;
@@ -234,26 +238,30 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     """
     from baselines.metrics import evaluate_policy
 
-    factory, kw, agent = agent_policy(model_path, env_id, algo, vecnormalize, env_kwargs, reward)
+    factory, kw, agent = agent_policy(model_path, env_id, algo, vecnormalize, env_kwargs, reward, deterministic)
+    if not deterministic:
+        import torch
+
+        torch.manual_seed(int(seed_base))
     seeds = [seed_base + k for k in range(int(episodes))]
     result = evaluate_policy(env_id, factory, seeds, episode_steps=episode_steps, env_kwargs=kw or None)
     result = dict(result)
     result["agent"] = {"model": agent["model"], "algo": agent["algo"], "vecnormalize": agent["vecnormalize"],
                        "seeds": seeds, "env_kwargs": kw, "residual": agent["residual"],
                        "features": agent["features"], "hold": agent["hold"], "reward": reward,
-                       "training_reward_kwargs": agent["training_reward_kwargs"]}
+                       "training_reward_kwargs": agent["training_reward_kwargs"], "deterministic": deterministic}
     return result
 
 
 def agent_policy(model_path: str | os.PathLike[str], env_id: str, algo: str | None = None,
                  vecnormalize: str | os.PathLike[str] | None = None, env_kwargs: Mapping[str, Any] | None = None,
-                 reward: str = "default") -> tuple[Any, dict[str, Any], dict[str, Any]]:
+                 reward: str = "default", deterministic: bool = True) -> tuple[Any, dict[str, Any], dict[str, Any]]:
     """``(policy_factory, env_kwargs, description)``: a trained agent as :func:`evaluate_agent` runs it (frozen
     VecNormalize statistics, the run's wrappers rebuilt as policies) and the environment arguments to run it
     with (the run's, reward-only ones dropped under ``reward="default"``, ``env_kwargs`` on top; no time limit
     of the training env).  ``description`` names the model, algorithm, statistics and wrappers."""
     vn_path = Path(vecnormalize) if vecnormalize is not None else run_vecnormalize(model_path, env_id)
-    policy = load_agent(model_path, algo, vn_path)
+    policy = load_agent(model_path, algo, vn_path, deterministic)
     kw, dropped = scoring_env_kwargs(env_id, training_env_kwargs(model_path, env_id), reward, env_kwargs)
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
     wrappers = training_vec_env_wrapper(model_path, env_id)

@@ -17,7 +17,9 @@ are evaluated too unless ``--no-baselines``.
 
 Per row: the mean return under the environment's default reward, the task's metric, energy, and the episodes
 that ended on a constraint (count, which ``k`` and after how many steps).  A setting is judged here, then the
-table is remade once (docs/agents.md); the test episodes never choose.
+table is remade once (docs/agents.md); the test episodes never choose.  ``--stochastic`` lets the agents sample
+their actions with the exploration noise they were trained with (a diagnostic: what training rollouts cost, e.g.
+the energy the noise alone spends); the baselines stay as they are.
 """
 
 from __future__ import annotations
@@ -42,14 +44,15 @@ def _summary(name: str, res: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def evaluate_models(env_id: str, groups: Sequence[Sequence[str]], episodes: int, seed_base: int,
-                    env_kwargs: Mapping[str, Any] | None, episode_steps: int | None = None) -> list[dict[str, Any]]:
+                    env_kwargs: Mapping[str, Any] | None, episode_steps: int | None = None,
+                    deterministic: bool = True) -> list[dict[str, Any]]:
     """One row per model and one per group of models (the group's mean, its models' ended episodes summed)."""
     from agents.evaluate import evaluate_agent
 
     rows: list[dict[str, Any]] = []
     for g, models in enumerate(groups):
         own = [_summary(str(m), evaluate_agent(m, env_id, episodes, seed_base, episode_steps=episode_steps,
-                                               env_kwargs=env_kwargs))
+                                               env_kwargs=env_kwargs, deterministic=deterministic))
                for m in models]
         rows.append({"policy": f"group {g + 1} ({len(own)} models: mean)", "group": g + 1, "kind": "group",
                      "return": float(np.mean([r["return"] for r in own])), "metric": own[0]["metric"],
@@ -93,6 +96,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--no-baselines", action="store_true")
     ap.add_argument("--skyhook-gains", type=float, nargs="*", default=[],
                     help="quarter car: the skyhook also at these damping gains (N s/m)")
+    ap.add_argument("--stochastic", action="store_true",
+                    help="agents sample their actions with their training noise (a diagnostic)")
     ap.add_argument("--json", default=None, metavar="FILE")
     a = ap.parse_args(argv)
     if a.episodes < 1:
@@ -100,15 +105,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     for m in (m for group in a.models for m in group):
         if not Path(m).is_file():
             ap.error(f"--models: {m} is not a file")
-    rows = evaluate_models(a.env, a.models, a.episodes, a.seed_base, a.env_kwargs, a.episode_steps)
+    rows = evaluate_models(a.env, a.models, a.episodes, a.seed_base, a.env_kwargs, a.episode_steps,
+                           deterministic=not a.stochastic)
     if not a.no_baselines:
         rows += evaluate_baselines(a.env, a.episodes, a.seed_base, a.env_kwargs, a.episode_steps, a.skyhook_gains)
     print(f"{a.env}: {a.episodes} episodes on seeds {a.seed_base} + k, environment arguments on top: "
-          f"{a.env_kwargs or {}}")
+          f"{a.env_kwargs or {}}" + ("; agents sample their actions (training noise)" if a.stochastic else ""))
     print(table(rows))
     if a.json:
         write_json(Path(a.json), {"env_id": a.env, "episodes": a.episodes, "seed_base": a.seed_base,
-                                  "env_kwargs": a.env_kwargs or {}, "rows": rows})
+                                  "env_kwargs": a.env_kwargs or {}, "stochastic": a.stochastic, "rows": rows})
     return 0
 
 

@@ -40,3 +40,17 @@ def test_dev_set_rows_groups_and_stress_arguments(tmp_path: Path) -> None:
         main(["--env", FORCE, "--models", str(tmp_path / "missing.zip")])
     with pytest.raises(SystemExit):
         main(["--env", FORCE, "--env-kwargs", "[1, 2]"])
+
+
+def test_stochastic_rows_sample_the_training_noise_reproducibly(tmp_path: Path) -> None:
+    info = train(FORCE, "ppo", 256, seed=2, log_folder=tmp_path, params=tiny("ppo"), save_freq=0, eval_freq=0)
+    model = info["model"]
+    det = evaluate_agent(model, FORCE, 2, DEV_SEED_BASE, episode_steps=30)
+    sto = [evaluate_agent(model, FORCE, 2, DEV_SEED_BASE, episode_steps=30, deterministic=False) for _ in range(2)]
+    assert sto[0]["return"] == sto[1]["return"] != det["return"]  # seeded noise, and it reached the actions
+    assert sto[0]["agent"]["deterministic"] is False and det["agent"]["deterministic"] is True
+    out = tmp_path / "dev.json"
+    assert main(["--env", FORCE, "--episodes", "2", "--episode-steps", "30", "--models", model, "--no-baselines",
+                 "--stochastic", "--json", str(out)]) == 0
+    rec = json.loads(out.read_text())
+    assert rec["stochastic"] is True and rec["rows"][1]["return"] == pytest.approx(sto[0]["return"], rel=1e-12)
