@@ -52,13 +52,24 @@ def _raw_env(env: VecEnv) -> tuple[VecEnv, VecNormalize | None]:
     (stepping it leaves the training curve and the statistics alone), and the ``VecNormalize`` above it."""
     from stable_baselines3.common.vec_env import VecMonitor
 
+    from agents.features import LeakyIntegralVecEnv
+
     vn = None
     while isinstance(env, VecEnvWrapper):
         if isinstance(env, VecNormalize):
             vn = env
         elif isinstance(env, VecMonitor):
-            return env.venv, vn
+            env = env.venv
+            break
         env = env.venv
+    # the baseline acts once per control step on the environment's own channels: observation features (appended
+    # channels) are fine, wrappers that change what an action is (residual, action hold) are not
+    inner = env
+    while isinstance(inner, VecEnvWrapper):
+        if not isinstance(inner, LeakyIntegralVecEnv):
+            raise ValueError(f"BehaviourCloningWarmStart: cannot clone a baseline through {type(inner).__name__} "
+                             "(only observation-feature wrappers may sit between the environment and the agent)")
+        inner = inner.venv
     return env, vn
 
 

@@ -86,3 +86,11 @@ def test_the_callback_hyperparameter_builds_it_as_rl_zoo3_does() -> None:
         make_callbacks("agents.nope.Missing")
     with pytest.raises(ValueError, match="dagger_rounds"):
         BehaviourCloningWarmStart(dagger_rounds=-1)
+
+
+def test_a_wrapper_that_changes_the_action_is_refused() -> None:
+    env = make_train_env(PS, 2, 0, None, NORMALIZE,
+                         vec_env_wrapper=[{"agents.hold.ActionHoldVecEnv": {"steps": 2}}])
+    model = PPO("MlpPolicy", env, n_steps=16, batch_size=32, seed=0)
+    with pytest.raises(ValueError, match="cannot clone a baseline through ActionHoldVecEnv"):
+        model.learn(32, callback=BehaviourCloningWarmStart("decoupled", steps=10))
