@@ -98,7 +98,8 @@ def task_env(venv: VecEnv) -> Any:
     return env
 
 
-def _check_mode(name: str, task: Any) -> None:
+def check_mode(name: str, task: Any) -> None:
+    """Raise where baseline ``name`` outputs current references and ``task`` is not in current mode."""
     if name in CURRENT_MODE_BASELINES and getattr(task, "control_mode", "current") != "current":
         raise ValueError(f"residual baseline {name!r} outputs current references: use env_kwargs "
                          "{control_mode: current}")
@@ -125,7 +126,7 @@ class ResidualVecEnv(VecEnvWrapper):
             raise ValueError(f"scale must lie in (0, 2], got {scale}")
         self.baseline, self.scale = baseline, float(scale)
         self._env = task_env(venv)
-        _check_mode(baseline, self._env.unwrapped.task)
+        check_mode(baseline, self._env.unwrapped.task)
         self._factory = baseline_factory(baseline)
         self.policy = self._factory(self._env)
         act = venv.action_space
@@ -224,7 +225,7 @@ class SetpointResidualVecEnv(VecEnvWrapper):
         self.baseline = baseline
         self._env = task_env(venv)
         task = self._env.unwrapped.task
-        _check_mode(baseline, task)
+        check_mode(baseline, task)
         self.setpoints = Setpoints([c.name for c in task.obs_channels], channels, scales)
         self._factory = baseline_factory(baseline)
         self.policy = self._factory(self._env)
@@ -322,7 +323,7 @@ def residual_policy(agent: Callable[[np.ndarray], np.ndarray] | None, config: Ma
 
     def make(env: Any) -> ResidualPolicy | SetpointPolicy:
         task = env.unwrapped.task
-        _check_mode(name, task)
+        check_mode(name, task)
         inner = agent if agent_factory is None else agent_factory(env)
         if setpoint:
             sp = Setpoints([c.name for c in task.obs_channels], config.get("channels", ()), config.get("scales", ()))

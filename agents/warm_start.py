@@ -14,10 +14,10 @@ hyperparameters).  When training starts from step 0 (not on a resume) it
 3. repeats ``dagger_rounds`` times with the *cloned policy* acting and the baseline, running beside it on the
    same observations, labelling every visited state (DAgger: Ross, Gordon & Bagnell 2011), refitting on all the
    data gathered so far, so that the clone learns what to do in the states its own errors lead to;
-4. sets the ``VecNormalize`` statistics from all recorded observations and returns (the policy was fitted on
-   observations normalised by them) and fits the value function to the discounted, normalised returns of the
-   last round's rollouts (the cloned policy's own value, so that the first PPO updates start from a critic
-   that knows it);
+4. updates the ``VecNormalize`` statistics with the baseline's recorded observations and returns (round 0;
+   every fit uses observations normalised by them) and fits the value function to the discounted, normalised
+   returns of the last round's rollouts (the cloned policy's own value, so that the first PPO updates start
+   from a critic that knows it);
 5. with ``freeze_obs_normalization`` (default) keeps the observation statistics fixed from then on: the
    normalisation is part of the cloned policy, and the statistics of the noisier states that exploration
    visits would otherwise shift every input of the network (the currents most: a small voltage noise moves
@@ -30,8 +30,9 @@ These steps are not counted as training timesteps and the training environment i
 record (losses, reward per step of each round, samples) goes to ``warm_start.json`` in the run folder.
 
 The agent that results is a learned policy with no baseline inside: at run time only the network acts.  Its
-starting point, however, is the baseline's behaviour, so tables name it "warm-started from <baseline>" rather
-than letting it pass for an agent learned from scratch.
+starting point, however, is the baseline's behaviour, so the comparison table labels such a row "warm-started by
+cloning <baseline>" (``benchmarks.rl_vs_baselines.wrapper_note``) rather than letting it pass for an agent
+learned from scratch.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecNormalize
 
-from agents.residual import baseline_factory, reset_rows, task_env
+from agents.residual import baseline_factory, check_mode, reset_rows, task_env
 
 
 def _raw_env(env: VecEnv) -> tuple[VecEnv, VecNormalize | None]:
@@ -106,6 +107,7 @@ class BehaviourCloningWarmStart(BaseCallback):
         """``steps`` steps on every row; the baseline labels every observation, it or the clone acts."""
         factory = baseline_factory(self.baseline)
         env = task_env(raw)
+        check_mode(self.baseline, env.unwrapped.task)
         n_task = len(env.unwrapped.task.obs_channels)
         ctrl = factory(env)
         if hasattr(ctrl, "reset"):

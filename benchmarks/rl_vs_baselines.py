@@ -242,16 +242,25 @@ def training_reward(algo: str, env_id: str, hyperparams: str | Path | None = Non
 
 
 def wrapper_note(algo: str, env_id: str, hyperparams: str | Path | None = None) -> str:
-    """``"; observes the leaky integral of body_accel"`` when the hyperparameters add observation features, and
-    ``"; decides every 25 control steps"`` when they hold the agent's actions (:mod:`agents.hold`)."""
-    from agents.common import read_hyperparams
+    """``"; observes the leaky integral of body_accel"`` when the hyperparameters add observation features,
+    ``"; decides every 25 control steps"`` when they hold the agent's actions (:mod:`agents.hold`), and what a
+    ``callback`` entry changes: ``"; warm-started by cloning decoupled"`` (:mod:`agents.warm_start`: the agent
+    starts as the baseline's imitation) and ``"; exploration noise planned"`` (:mod:`agents.exploration`)."""
+    from agents.common import class_entries, read_hyperparams
     from agents.features import feature_config
     from agents.hold import hold_steps
 
-    wrappers = read_hyperparams(algo, env_id, hyperparams).get("vec_env_wrapper")
+    hp = read_hyperparams(algo, env_id, hyperparams)
+    wrappers = hp.get("vec_env_wrapper")
     cfg, steps = feature_config(wrappers), hold_steps(wrappers)
     note = "" if cfg is None else f"; observes the leaky integral of {', '.join(cfg.get('channels', ['body_accel']))}"
-    return note + ("" if steps is None else f"; decides every {steps} control steps")
+    note += "" if steps is None else f"; decides every {steps} control steps"
+    for path, kwargs in class_entries(hp.get("callback"), "callback"):
+        if path == "agents.warm_start.BehaviourCloningWarmStart":
+            note += f"; warm-started by cloning {kwargs.get('baseline', 'decoupled')}"
+        elif path == "agents.exploration.LogStdSchedule":
+            note += f"; exploration noise planned (log std {kwargs.get('start', -1.5)} to {kwargs.get('end', -3.0)})"
+    return note
 
 
 def reward_note(reward_kw: dict[str, Any]) -> str:

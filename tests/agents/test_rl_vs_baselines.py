@@ -116,3 +116,20 @@ def test_residual_agents_can_have_their_own_budget() -> None:
     assert budgets(envs, 1000, ["ELPAS-QuarterCar-v0=20"])[1] == {QC: 20, envs[1]: 1000}  # default: the pure one
     with pytest.raises(SystemExit, match="residual-timesteps-for"):
         budgets(envs, 1000, [], ["Unknown-v0=5"])
+
+
+def test_row_labels_name_a_warm_start_and_a_planned_noise(tmp_path: Path) -> None:
+    from benchmarks.rl_vs_baselines import wrapper_note
+
+    f = tmp_path / "ppo.yml"
+    f.write_text("""vsa_gym/VsaUT2-PositionStiffness-v0:
+  n_timesteps: 1000
+  policy: MlpPolicy
+  vec_env_wrapper: [{agents.features.LeakyIntegralVecEnv: {channels: [r_ref]}}]
+  callback:
+    - agents.warm_start.BehaviourCloningWarmStart: {baseline: decoupled}
+    - agents.exploration.LogStdSchedule: {start: -1.5, end: -3.5}
+""")
+    note = wrapper_note("ppo", "vsa_gym/VsaUT2-PositionStiffness-v0", f)
+    assert note == ("; observes the leaky integral of r_ref; warm-started by cloning decoupled"
+                    "; exploration noise planned (log std -1.5 to -3.5)")
