@@ -118,6 +118,19 @@ def reset_rows(policy: Any, fresh: Any, rows: np.ndarray, n: int) -> None:
             cur[rows] = v
 
 
+def restart_rows(policy: Any, factory: Callable[[Any], Any], env: Any, obs_rows: np.ndarray, rows: np.ndarray,
+                 n: int) -> np.ndarray:
+    """Rows ``rows`` of ``policy`` (a baseline on ``n`` rows) start new episodes: a fresh baseline from ``factory``
+    takes its first call on their observations ``obs_rows`` and its states replace theirs (:func:`reset_rows`).
+    Returns the fresh baseline's actions for those rows, ``(len(rows), m)`` float32."""
+    fresh = factory(env)
+    if hasattr(fresh, "reset"):
+        fresh.reset()
+    act = np.asarray(fresh(obs_rows), dtype=np.float32).reshape(len(rows), -1)
+    reset_rows(policy, fresh, rows, n)
+    return act
+
+
 class ResidualVecEnv(VecEnvWrapper):
     """Baseline action + ``scale`` x agent action; observation + baseline action (module docstring)."""
 
@@ -170,11 +183,7 @@ class ResidualVecEnv(VecEnvWrapper):
                 self.policy.reset()
             base = self._base_action(obs)
         elif rows.size:
-            fresh = self._factory(self._env)
-            if hasattr(fresh, "reset"):
-                fresh.reset()
-            base[rows] = np.asarray(fresh(obs[rows]), dtype=np.float32).reshape(rows.size, -1)
-            reset_rows(self.policy, fresh, rows, self.num_envs)
+            base[rows] = restart_rows(self.policy, self._factory, self._env, obs[rows], rows, self.num_envs)
         self._base = base
         return self._aug(obs, base), rew, done, infos
 
@@ -247,11 +256,7 @@ class SetpointResidualVecEnv(VecEnvWrapper):
         u = np.asarray(self.policy(shifted), dtype=np.float32).reshape(self.num_envs, -1)
         rows = self._fresh
         if rows.size and rows.size < self.num_envs:  # rows of new episodes: a fresh baseline's first call
-            fresh = self._factory(self._env)
-            if hasattr(fresh, "reset"):
-                fresh.reset()
-            u[rows] = np.asarray(fresh(shifted[rows]), dtype=np.float32).reshape(rows.size, -1)
-            reset_rows(self.policy, fresh, rows, self.num_envs)
+            u[rows] = restart_rows(self.policy, self._factory, self._env, shifted[rows], rows, self.num_envs)
         self._fresh = np.arange(0)
         self.venv.step_async(np.clip(u, -1.0, 1.0))
 

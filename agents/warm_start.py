@@ -45,7 +45,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecNormalize
 
-from agents.residual import baseline_factory, check_mode, reset_rows, task_env
+from agents.residual import baseline_factory, check_mode, restart_rows, task_env
 
 
 def _raw_env(env: VecEnv) -> tuple[VecEnv, VecNormalize | None]:
@@ -114,29 +114,24 @@ class BehaviourCloningWarmStart(BaseCallback):
             ctrl.reset()
         obs = raw.reset()
         n = raw.num_envs
+        label = np.asarray(ctrl(obs[:, :n_task]), dtype=np.float32).reshape(n, -1)
         O, A, R, D = [], [], [], []
         for _ in range(self.steps):
-            label = np.asarray(ctrl(obs[:, :n_task]), dtype=np.float32).reshape(n, -1)
             act = self._predict(obs, vn) if policy_acts else label
             O.append(obs.copy())
             A.append(label)
             obs, rew, done, _ = raw.step(np.clip(act, -1.0, 1.0))
             R.append(np.asarray(rew, dtype=np.float64))
             D.append(np.asarray(done, dtype=bool))
+            # the baseline advances once per step on every row; rows that start a new episode get a fresh one
+            label = np.asarray(ctrl(obs[:, :n_task]), dtype=np.float32).reshape(n, -1)
             rows = np.flatnonzero(done)
-            if rows.size:  # fresh controller state for the rows that start a new episode
-                fresh = factory(env)
-                if hasattr(fresh, "reset"):
-                    fresh.reset()
-                fresh(obs[rows, :n_task])
-                reset_rows(ctrl, fresh, rows, n)
+            if rows.size:
+                label[rows] = restart_rows(ctrl, factory, env, obs[rows, :n_task], rows, n)
         return {"obs": np.stack(O), "act": np.stack(A), "rew": np.stack(R), "done": np.stack(D)}
 
     def _normalise(self, obs: np.ndarray, vn: VecNormalize | None) -> np.ndarray:
-        if vn is None or not vn.norm_obs:
-            return obs.astype(np.float32)
-        return np.clip((obs - vn.obs_rms.mean) / np.sqrt(vn.obs_rms.var + vn.epsilon),
-                       -vn.clip_obs, vn.clip_obs).astype(np.float32)
+        return np.asarray(obs if vn is None else vn.normalize_obs(obs), dtype=np.float32)
 
     def _predict(self, obs: np.ndarray, vn: VecNormalize | None) -> np.ndarray:
         import torch
@@ -151,10 +146,7 @@ class BehaviourCloningWarmStart(BaseCallback):
         import torch
 
         policy = self.model.policy
-        params = [p for name, p in policy.named_parameters()
-                  if (head == "pi" and ("policy_net" in name or "action_net" in name))
-                  or (head == "vf" and ("value_net" in name))]
-        opt = torch.optim.Adam(params, lr=self.lr)
+        opt = torch.optim.Adam(self._parameters(head), lr=self.lr)
         xt = torch.as_tensor(x, device=self.model.device)
         yt = torch.as_tensor(y, dtype=torch.float32, device=self.model.device)
         rng = np.random.default_rng(int(self.model.seed or 0))
@@ -180,9 +172,7 @@ class BehaviourCloningWarmStart(BaseCallback):
         """Discounted normalised returns (steps x rows) and a mask of the entries whose horizon is complete
         (an episode end or at least 5 / (1 - gamma) steps before the end of the record)."""
         gamma = float(self.model.gamma)
-        r = rew
-        if vn is not None and vn.norm_reward:
-            r = np.clip(rew / np.sqrt(vn.ret_rms.var + vn.epsilon), -vn.clip_reward, vn.clip_reward)
+        r = rew if vn is None else vn.normalize_reward(rew)
         T = r.shape[0]
         G = np.zeros_like(r)
         g = np.zeros(r.shape[1])
@@ -255,13 +245,17 @@ class BehaviourCloningWarmStart(BaseCallback):
         if self.record_path is not None:
             Path(self.record_path).write_text(json.dumps(self.record, indent=1))
         if self.critic_warmup > 0:  # PPO's first updates move only the critic, towards the clone's own value
-            self._frozen = self._actor_parameters()
+            self._frozen = self._parameters("pi+std")
             for p in self._frozen:
                 p.requires_grad_(False)
 
-    def _actor_parameters(self) -> list[Any]:
-        return [p for name, p in self.model.policy.named_parameters()
-                if "policy_net" in name or "action_net" in name or name == "log_std"]
+    def _parameters(self, head: str) -> list[Any]:
+        """The actor's layers (``"pi"``; with its noise: ``"pi+std"``) or the critic's (``"vf"``) of SB3's
+        ``ActorCriticPolicy`` (``mlp_extractor.policy_net``, ``action_net``, ``log_std``; ``mlp_extractor.value_net``,
+        ``value_net``)."""
+        names = {"pi": ("policy_net", "action_net"), "pi+std": ("policy_net", "action_net", "log_std"),
+                 "vf": ("value_net",)}[head]
+        return [p for name, p in self.model.policy.named_parameters() if any(k in name for k in names)]
 
     def _on_rollout_start(self) -> None:
         if self._frozen and self.model.num_timesteps >= self.critic_warmup:
