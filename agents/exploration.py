@@ -9,7 +9,8 @@ PPO learns the log standard deviation of its Gaussian policy with everything els
 price that the learned policy would not pay, this leaves training rollouts far from what is scored: on the
 vsaUT-II a voltage noise of 0.2 of 24 V is a current noise of amperes on the 0.317 Ohm frame motor, whose copper
 loss the reward charges as energy (docs/agents.md, "What the training rollouts cost": with their training noise
-the agents spend about six times the energy they spend without it).  :class:`LogStdSchedule` takes the deviation out of the optimisation and moves it linearly in log space from ``start`` to ``end`` over the first
+the agents spend about six times the energy they spend without it).  :class:`LogStdSchedule` takes the deviation
+out of the optimisation and moves it linearly in log space from ``start`` to ``end`` over the first
 ``fraction`` of the run's timesteps, then holds it: early rollouts explore widely, late ones are close to the
 deterministic policy that is evaluated.  It is an SB3 callback (the hyperparameters' ``callback`` entry, as in
 rl-zoo3); the value is set at the start of every rollout from the run's step count, so a resumed run continues the
