@@ -171,7 +171,17 @@ def read_hyperparams(algo: str, env_id: str, path: str | os.PathLike[str] | None
     return hp
 
 
-_UNSUPPORTED = ("env_wrapper", "frame_stack", "monitor_kwargs")
+_UNSUPPORTED = ("env_wrapper", "monitor_kwargs")
+
+
+def frame_stack_of(value: Any) -> int:
+    """The number of stacked observations an rl-zoo3 ``frame_stack`` entry asks for (``None``/absent: 1, no
+    stacking); ``ValueError`` naming the entry unless it is a whole number >= 1."""
+    if value is None:
+        return 1
+    if isinstance(value, bool) or not isinstance(value, int | float) or int(value) != value or value < 1:
+        raise ValueError(f"frame_stack must be a whole number of observations >= 1, got {value!r}")
+    return int(value)
 
 
 def eval_zoo_expr(expr: str) -> Any:
@@ -186,9 +196,10 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
     """rl-zoo3's pre-processing of a hyperparameter entry, split into what our trainer needs.
 
     Returns ``{"model": kwargs of the algorithm, "n_envs", "n_timesteps", "normalize" (None or
-    VecNormalize kwargs), "env_kwargs", "vec_env_wrapper", "callback"}`` (the last two as written in the YAML,
-    see :func:`wrap_vec_env` and :func:`make_callbacks`).  Keys that rl-zoo3 supports but we do not (gym
-    wrappers, frame stacking) raise ``ValueError``.
+    VecNormalize kwargs), "env_kwargs", "frame_stack", "vec_env_wrapper", "callback"}`` (the last two as written in
+    the YAML, see :func:`wrap_vec_env` and :func:`make_callbacks`; ``frame_stack``: the number of observations
+    the policy sees, 1 = no stacking).  Keys that rl-zoo3 supports but we do not (gym wrappers, monitor
+    arguments) raise ``ValueError``.
     """
     hp = dict(raw)
     bad = [k for k in _UNSUPPORTED if k in hp]
@@ -204,6 +215,7 @@ def process_hyperparams(raw: Mapping[str, Any], n_actions: int) -> dict[str, Any
             hp[key] = LinearSchedule(float(value))
     if isinstance(hp.get("train_freq"), list):
         hp["train_freq"] = tuple(hp["train_freq"])
+    out["frame_stack"] = frame_stack_of(hp.pop("frame_stack", None))
     out["vec_env_wrapper"] = hp.pop("vec_env_wrapper", None)
     out["callback"] = hp.pop("callback", None)
     norm = hp.pop("normalize", False)
@@ -293,14 +305,16 @@ def wrapper_kwargs(spec: Any, class_path: str) -> dict[str, Any] | None:
 def make_train_env(env_id: str, n_envs: int, seed: int, env_kwargs: Mapping[str, Any] | None = None,
                    normalize: Mapping[str, Any] | None = None, monitor_file: str | None = None,
                    vecnormalize_path: str | os.PathLike[str] | None = None, training: bool = True,
-                   vec_env_wrapper: Any = None) -> Any:
-    """Native batched vector env -> ``vec_env_wrapper`` (e.g. residual) -> ``VecMonitor`` -> ``VecNormalize``.
+                   vec_env_wrapper: Any = None, frame_stack: int = 1) -> Any:
+    """Native batched vector env -> ``vec_env_wrapper`` (e.g. residual) -> ``VecMonitor`` -> ``VecNormalize``
+    -> ``VecFrameStack`` (``frame_stack`` > 1).
 
     ``vecnormalize_path`` loads saved statistics (resume / evaluation); ``training=False``
     freezes them and switches reward normalisation off (evaluation environments).  As in rl-zoo3,
-    the ``vec_env_wrapper`` sees the raw (unnormalised) environment.
+    the ``vec_env_wrapper`` sees the raw (unnormalised) environment and the frames are stacked after
+    the normalisation (the statistics are those of one observation).
     """
-    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+    from stable_baselines3.common.vec_env import VecFrameStack, VecMonitor, VecNormalize
 
     import vsa_gym.envs  # noqa: F401  (registers the ids)
     from vsa_gym.envs.sb3 import make_sb3_vec_env
@@ -315,6 +329,8 @@ def make_train_env(env_id: str, n_envs: int, seed: int, env_kwargs: Mapping[str,
     if isinstance(venv, VecNormalize) and not training:
         venv.training = False
         venv.norm_reward = False
+    if frame_stack > 1:
+        venv = VecFrameStack(venv, frame_stack)
     return venv
 
 

@@ -44,6 +44,7 @@ from agents.common import (
     algo_class,
     algo_of_model,
     eval_zoo_expr,
+    frame_stack_of,
     read_vecnormalize,
     run_config,
     run_env_kwargs,
@@ -122,16 +123,23 @@ class SB3Policy:
     """A trained SB3 model as a baselines policy: ``reset()``, ``policy(obs) -> action`` (batched or single).
 
     Observations are normalised with the frozen training statistics (``obs_rms``, ``clip_obs``,
-    ``epsilon`` of the saved ``VecNormalize``) exactly as ``VecNormalize.normalize_obs`` does.
+    ``epsilon`` of the saved ``VecNormalize``) exactly as ``VecNormalize.normalize_obs`` does.  With
+    ``frame_stack`` = n > 1 the model sees the last n normalised observations side by side, oldest first and
+    zeros before the episode's first, as SB3's ``VecFrameStack`` (after ``VecNormalize``, rl-zoo3's order)
+    gave them in training; ``reset()`` starts a new episode for every row.
     """
 
-    def __init__(self, model: Any, vecnormalize: Any | None = None, deterministic: bool = True) -> None:
+    def __init__(self, model: Any, vecnormalize: Any | None = None, deterministic: bool = True,
+                 frame_stack: int = 1) -> None:
         self.model = model
         self.vecnormalize = vecnormalize
         self.deterministic = deterministic
+        self.frame_stack = int(frame_stack)
+        self.frames: np.ndarray | None = None
 
     def reset(self) -> None:
-        """Stateless (MLP policies); present for the baselines' policy protocol."""
+        """Forget the stacked frames (a no-op without ``frame_stack``)."""
+        self.frames = None
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
         vn = self.vecnormalize
@@ -139,19 +147,31 @@ class SB3Policy:
             return obs
         return vn.normalize_obs(obs)
 
+    def stack(self, obs: np.ndarray) -> np.ndarray:
+        """``obs`` (n, d) appended to each row's frames: (n, frame_stack d)."""
+        if self.frame_stack <= 1:
+            return obs
+        n, d = obs.shape
+        if self.frames is None or self.frames.shape != (n, self.frame_stack * d):
+            self.frames = np.zeros((n, self.frame_stack * d), dtype=obs.dtype)
+        self.frames = np.concatenate([self.frames[:, d:], obs], axis=1)
+        return self.frames
+
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         o = np.asarray(obs, dtype=np.float32)
         single = o.ndim == 1
         o2 = np.atleast_2d(o)
-        action, _ = self.model.predict(self.normalize(o2), deterministic=self.deterministic)
+        action, _ = self.model.predict(self.stack(self.normalize(o2)), deterministic=self.deterministic)
         action = np.asarray(action, dtype=np.float32)
         return action[0] if single else action
 
 
 def load_agent(model_path: str | os.PathLike[str], algo: str | None = None,
-               vecnormalize: str | os.PathLike[str] | None = None, deterministic: bool = True) -> SB3Policy:
+               vecnormalize: str | os.PathLike[str] | None = None, deterministic: bool = True,
+               frame_stack: int | None = None) -> SB3Policy:
     """Load a model .zip of the run layout with its VecNormalize statistics as an :class:`SB3Policy`
-    (``deterministic=False``: it samples its actions, with the exploration noise it was trained with)."""
+    (``deterministic=False``: it samples its actions, with the exploration noise it was trained with;
+    ``frame_stack``: how many observations it sees side by side, default its run's, :func:`training_frame_stack`)."""
     model_path = Path(model_path)
     algo = algo or algo_of_model(model_path)
     model = algo_class(algo).load(str(model_path), device="cpu")
@@ -160,7 +180,8 @@ def load_agent(model_path: str | os.PathLike[str], algo: str | None = None,
     if vn_path is not None:
         vn = read_vecnormalize(vn_path)
         vn.training = False
-    return SB3Policy(model, vn, deterministic)
+    n_stack = training_frame_stack(model_path) if frame_stack is None else frame_stack_of(frame_stack)
+    return SB3Policy(model, vn, deterministic, n_stack)
 
 
 def training_env_kwargs(model_path: str | os.PathLike[str], env_id: str) -> dict[str, Any]:
@@ -173,6 +194,22 @@ def training_vec_env_wrapper(model_path: str | os.PathLike[str], env_id: str) ->
     """``vec_env_wrapper`` of the run's ``config.yml`` (``None`` when absent or outside a run directory)."""
     params_dir = run_params_dir(model_path, env_id)
     return run_config(params_dir).get("vec_env_wrapper") if params_dir is not None else None
+
+
+def training_frame_stack(model_path: str | os.PathLike[str], env_id: str | None = None) -> int:
+    """``frame_stack`` of the run's ``config.yml`` (1, no stacking, when absent or outside a run directory).
+    Without ``env_id`` every ``config.yml`` one level below the model's folder is read (the run layout keeps
+    one, in ``ENV_NAME/``); ``ValueError`` if they disagree."""
+    if env_id is not None:
+        params_dir = run_params_dir(model_path, env_id)
+        dirs = [] if params_dir is None else [params_dir]
+    else:
+        dirs = [c.parent for c in sorted(Path(model_path).parent.glob("*/config.yml"))]
+    found = {frame_stack_of(run_config(d).get("frame_stack")) for d in dirs}
+    if len(found) > 1:
+        raise ValueError(f"{model_path}: the config.yml files next to the model name different frame_stack "
+                         f"values {sorted(found)}; pass frame_stack (or env_id) explicitly")
+    return found.pop() if found else 1
 
 
 def run_vecnormalize(model_path: str | os.PathLike[str], env_id: str) -> Path | None:
@@ -248,7 +285,8 @@ def evaluate_agent(model_path: str | os.PathLike[str], env_id: str, episodes: in
     result = dict(result)
     result["agent"] = {"model": agent["model"], "algo": agent["algo"], "vecnormalize": agent["vecnormalize"],
                        "seeds": seeds, "env_kwargs": kw, "residual": agent["residual"],
-                       "features": agent["features"], "hold": agent["hold"], "reward": reward,
+                       "features": agent["features"], "hold": agent["hold"],
+                       "frame_stack": agent["frame_stack"], "reward": reward,
                        "training_reward_kwargs": agent["training_reward_kwargs"], "deterministic": deterministic}
     return result
 
@@ -261,13 +299,14 @@ def agent_policy(model_path: str | os.PathLike[str], env_id: str, algo: str | No
     with (the run's, reward-only ones dropped under ``reward="default"``, ``env_kwargs`` on top; no time limit
     of the training env).  ``description`` names the model, algorithm, statistics and wrappers."""
     vn_path = Path(vecnormalize) if vecnormalize is not None else run_vecnormalize(model_path, env_id)
-    policy = load_agent(model_path, algo, vn_path, deterministic)
+    frame_stack = training_frame_stack(model_path, env_id)
+    policy = load_agent(model_path, algo, vn_path, deterministic, frame_stack)
     kw, dropped = scoring_env_kwargs(env_id, training_env_kwargs(model_path, env_id), reward, env_kwargs)
     kw.pop("max_episode_steps", None)  # metrics run the registered episode length unless episode_steps is given
     wrappers = training_vec_env_wrapper(model_path, env_id)
     description = {"model": str(model_path), "algo": algo or algo_of_model(model_path), "vecnormalize": str(vn_path),
                    "residual": residual_config(wrappers), "features": feature_config(wrappers),
-                   "hold": hold_config(wrappers), "training_reward_kwargs": dropped}
+                   "hold": hold_config(wrappers), "frame_stack": frame_stack, "training_reward_kwargs": dropped}
     return wrapped_policy(policy, wrappers), kw, description
 
 

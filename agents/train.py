@@ -278,14 +278,15 @@ def train(env_id: str, algo: str = "ppo", timesteps: int | None = None, seed: in
     monitor = str(save_path / (f"resume_{start_steps}" if resume else "0"))
     vn_path = save_path / f"rl_model_vecnormalize_{start_steps}_steps.pkl" if (resume and normalized) else None
     env = make_train_env(env_id, n_envs, env_seed, hp["env_kwargs"], hp["normalize"], monitor, vn_path,
-                         vec_env_wrapper=hp["vec_env_wrapper"])
+                         vec_env_wrapper=hp["vec_env_wrapper"], frame_stack=hp["frame_stack"])
     eval_env = None
     if eval_freq > 0:
         from agents.evaluate import scoring_env_kwargs
 
         eval_env_kwargs = scoring_env_kwargs(env_id, hp["env_kwargs"] or {}, eval_reward, eval_kwargs)[0]
         eval_env = make_train_env(env_id, int(n_eval_envs or eval_episodes), EVAL_SEED_BASE, eval_env_kwargs,
-                                  hp["normalize"], training=False, vec_env_wrapper=hp["vec_env_wrapper"])
+                                  hp["normalize"], training=False, vec_env_wrapper=hp["vec_env_wrapper"],
+                                  frame_stack=hp["frame_stack"])
     tb = str(save_path / "tb") if tensorboard else None
     if resume:
         model = cls.load(str(ckpt), env=env, device=device, tensorboard_log=tb)

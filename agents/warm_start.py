@@ -51,12 +51,15 @@ from agents.residual import baseline_factory, check_mode, restart_rows, task_env
 def _raw_env(env: VecEnv) -> tuple[VecEnv, VecNormalize | None]:
     """The layer the policy's (unnormalised) observations come from, below ``VecMonitor`` and ``VecNormalize``
     (stepping it leaves the training curve and the statistics alone), and the ``VecNormalize`` above it."""
-    from stable_baselines3.common.vec_env import VecMonitor
+    from stable_baselines3.common.vec_env import VecFrameStack, VecMonitor
 
     from agents.features import LeakyIntegralVecEnv
 
     vn = None
     while isinstance(env, VecEnvWrapper):
+        if isinstance(env, VecFrameStack):  # the clone would be fitted on single observations
+            raise ValueError("BehaviourCloningWarmStart: cannot clone into a policy of stacked frames "
+                             "(frame_stack); train without frame_stack or without the warm start")
         if isinstance(env, VecNormalize):
             vn = env
         elif isinstance(env, VecMonitor):

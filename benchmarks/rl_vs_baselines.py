@@ -245,8 +245,9 @@ def wrapper_note(algo: str, env_id: str, hyperparams: str | Path | None = None) 
     """``"; observes the leaky integral of body_accel"`` when the hyperparameters add observation features,
     ``"; decides every 25 control steps"`` when they hold the agent's actions (:mod:`agents.hold`), and what a
     ``callback`` entry changes: ``"; warm-started by cloning decoupled"`` (:mod:`agents.warm_start`: the agent
-    starts as the baseline's imitation) and ``"; exploration noise planned"`` (:mod:`agents.exploration`)."""
-    from agents.common import class_entries, read_hyperparams
+    starts as the baseline's imitation) and ``"; exploration noise planned"`` (:mod:`agents.exploration`);
+    ``"; sees the last 4 observations"`` for rl-zoo3's ``frame_stack``."""
+    from agents.common import class_entries, frame_stack_of, read_hyperparams
     from agents.features import feature_config
     from agents.hold import hold_steps
 
@@ -255,6 +256,8 @@ def wrapper_note(algo: str, env_id: str, hyperparams: str | Path | None = None) 
     cfg, steps = feature_config(wrappers), hold_steps(wrappers)
     note = "" if cfg is None else f"; observes the leaky integral of {', '.join(cfg.get('channels', ['body_accel']))}"
     note += "" if steps is None else f"; decides every {steps} control steps"
+    n_stack = frame_stack_of(hp.get("frame_stack"))
+    note += "" if n_stack == 1 else f"; sees the last {n_stack} observations"
     for path, kwargs in class_entries(hp.get("callback"), "callback"):
         if path == "agents.warm_start.BehaviourCloningWarmStart":
             note += f"; warm-started by cloning {kwargs.get('baseline', 'decoupled')}"

@@ -126,10 +126,12 @@ def test_row_labels_name_a_warm_start_and_a_planned_noise(tmp_path: Path) -> Non
   n_timesteps: 1000
   policy: MlpPolicy
   vec_env_wrapper: [{agents.features.LeakyIntegralVecEnv: {channels: [r_ref]}}]
+  frame_stack: 4
   callback:
     - agents.warm_start.BehaviourCloningWarmStart: {baseline: decoupled}
     - agents.exploration.LogStdSchedule: {start: -1.5, end: -3.5}
 """)
     note = wrapper_note("ppo", "vsa_gym/VsaUT2-PositionStiffness-v0", f)
-    assert note == ("; observes the leaky integral of r_ref; warm-started by cloning decoupled"
+    assert note == ("; observes the leaky integral of r_ref; sees the last 4 observations"
+                    "; warm-started by cloning decoupled"
                     "; exploration noise planned (log std -1.5 to -3.5)")
