@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-ALGO_NAMES: tuple[str, ...] = ("ppo", "sac", "td3", "tqc")
+ALGO_NAMES: tuple[str, ...] = ("ppo", "sac", "td3", "tqc", "ppo_lstm")
 OFF_POLICY: frozenset[str] = frozenset({"sac", "td3", "tqc"})
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 EVAL_SEED_BASE = 1_000_000
@@ -121,6 +121,12 @@ def algo_class(algo: str) -> Any:
         except ImportError as exc:  # pragma: no cover - depends on the install
             raise ImportError("algo 'tqc' needs sb3-contrib (pip install -e '.[rl]')") from exc
         return TQC
+    if algo == "ppo_lstm":  # rl-zoo3's name for sb3-contrib's RecurrentPPO
+        try:
+            from sb3_contrib import RecurrentPPO
+        except ImportError as exc:  # pragma: no cover - depends on the install
+            raise ImportError("algo 'ppo_lstm' needs sb3-contrib (pip install -e '.[rl]')") from exc
+        return RecurrentPPO
     raise ValueError(f"unknown algo {algo!r}; choose one of {', '.join(ALGO_NAMES)}")
 
 
@@ -465,6 +471,8 @@ def algo_of_model(model_path: str | os.PathLike[str]) -> str:
     with zipfile.ZipFile(p) as zf:
         data = json.loads(zf.read("data").decode())
     module = str(data.get("policy_class", {}).get("__module__", ""))
+    if module.endswith("common.recurrent.policies"):  # sb3-contrib's RecurrentActorCriticPolicy
+        return "ppo_lstm"
     for algo in ALGO_NAMES:
         if f".{algo}." in f".{module}.":
             return algo

@@ -126,7 +126,9 @@ class SB3Policy:
     ``epsilon`` of the saved ``VecNormalize``) exactly as ``VecNormalize.normalize_obs`` does.  With
     ``frame_stack`` = n > 1 the model sees the last n normalised observations side by side, oldest first and
     zeros before the episode's first, as SB3's ``VecFrameStack`` (after ``VecNormalize``, rl-zoo3's order)
-    gave them in training; ``reset()`` starts a new episode for every row.
+    gave them in training.  A recurrent model (sb3-contrib's ``RecurrentPPO``, rl-zoo3's ``ppo_lstm``) carries
+    its LSTM state from call to call, from zero at an episode's first observation, as SB3's
+    ``evaluate_policy`` runs it.  ``reset()`` starts a new episode for every row.
     """
 
     def __init__(self, model: Any, vecnormalize: Any | None = None, deterministic: bool = True,
@@ -136,10 +138,13 @@ class SB3Policy:
         self.deterministic = deterministic
         self.frame_stack = int(frame_stack)
         self.frames: np.ndarray | None = None
+        self.recurrent = hasattr(model.policy, "lstm_actor")
+        self.state: Any = None
 
     def reset(self) -> None:
-        """Forget the stacked frames (a no-op without ``frame_stack``)."""
+        """Forget the stacked frames and the recurrent state (no-ops for a plain MLP policy)."""
         self.frames = None
+        self.state = None
 
     def normalize(self, obs: np.ndarray) -> np.ndarray:
         vn = self.vecnormalize
@@ -161,7 +166,15 @@ class SB3Policy:
         o = np.asarray(obs, dtype=np.float32)
         single = o.ndim == 1
         o2 = np.atleast_2d(o)
-        action, _ = self.model.predict(self.stack(self.normalize(o2)), deterministic=self.deterministic)
+        x = self.stack(self.normalize(o2))
+        if self.recurrent:
+            if self.state is not None and self.state[0].shape[1] != o2.shape[0]:
+                self.state = None  # another batch of rows: new episodes
+            start = np.full(o2.shape[0], self.state is None)
+            action, self.state = self.model.predict(x, state=self.state, episode_start=start,
+                                                    deterministic=self.deterministic)
+        else:
+            action, _ = self.model.predict(x, deterministic=self.deterministic)
         action = np.asarray(action, dtype=np.float32)
         return action[0] if single else action
 

@@ -212,8 +212,8 @@ class BehaviourCloningWarmStart(BaseCallback):
                 rms = vn_now.obs_rms
                 self._obs_stats = (rms.mean.copy(), rms.var.copy(), float(rms.count))
             return
-        if not isinstance(self.model.policy, ActorCriticPolicy):
-            raise TypeError(f"BehaviourCloningWarmStart needs an on-policy actor-critic (PPO, A2C); got "
+        if not isinstance(self.model.policy, ActorCriticPolicy) or hasattr(self.model.policy, "lstm_actor"):
+            raise TypeError(f"BehaviourCloningWarmStart needs an on-policy feed-forward actor-critic (PPO, A2C); got "
                             f"{type(self.model.policy).__name__}")
         raw, vn = _raw_env(self.training_env)
         data: list[dict[str, np.ndarray]] = []

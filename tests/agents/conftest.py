@@ -11,6 +11,7 @@ TINY = {
     "sac": {"n_envs": 2, "learning_starts": 100, "batch_size": 64, "buffer_size": 10_000},
     "td3": {"n_envs": 2, "learning_starts": 100, "batch_size": 64, "buffer_size": 10_000},
     "tqc": {"n_envs": 2, "learning_starts": 100, "batch_size": 64, "buffer_size": 10_000},
+    "ppo_lstm": {"n_envs": 2, "n_steps": 128, "batch_size": 64, "n_epochs": 2},
 }
 
 
