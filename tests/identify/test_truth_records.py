@@ -434,3 +434,19 @@ def test_a_refused_newcomer_that_moved_the_accepted_effect_to_a_better_optimum_l
     assert res.effects[0]["parameters"]["F_s"] == pytest.approx(truth["main"]["stribeck_friction"], rel=0.15)
     polished = [c for c in res.candidates if c.round == 2 and c.name == "coulomb_friction"]
     assert polished and not polished[0].accepted and "not needed: refitted from this joint fit" in polished[0].reason
+
+
+def test_a_soft_shaft_on_a_rotor_light_drive_is_within_the_fitted_range(tmp_path):
+    """Case 151023 (a fresh pairs set, read before the change): a 4.6 Hz shaft beside a 3.6 ms sensor delay on a
+    gear motor whose rotor carries 19 % of the inertia.  The compliance range ended at a 4 Hz mode on ``m / 4``,
+    stiffer than this shaft on the model's own reduced mass, so the fit stopped at the bound and nothing was
+    named; the range now ends at 4 Hz on ``frac_m (1 - frac_m) m`` (and is unchanged at frac_m = 0.5)."""
+    csv = write_case(draw_case(151023, ("transmission_compliance", "sensor_delay")), tmp_path)
+    ad = make_adapter(load_record(csv))
+    spec = ad.effects["transmission_compliance"].params[0]
+    p = ad.params
+    m_r = p.frac_m * (1 - p.frac_m) * p.m
+    assert p.frac_m == pytest.approx(0.19, abs=0.01)
+    assert spec.upper == pytest.approx(1 / ((2 * np.pi * 4.0) ** 2 * m_r), rel=1e-12)
+    assert spec.upper > 1 / ((2 * np.pi * 4.0) ** 2 * p.m / 4) * 1.5  # beyond the old bound
+    _pair_named_within_15_percent(tmp_path, 151023, ("transmission_compliance", "sensor_delay"), None)
