@@ -185,7 +185,8 @@ def frame_stack_of(value: Any) -> int:
     stacking); ``ValueError`` naming the entry unless it is a whole number >= 1."""
     if value is None:
         return 1
-    if isinstance(value, bool) or not isinstance(value, int | float) or int(value) != value or value < 1:
+    if (isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value)
+            or int(value) != value or value < 1):
         raise ValueError(f"frame_stack must be a whole number of observations >= 1, got {value!r}")
     return int(value)
 

@@ -41,7 +41,7 @@ def test_frame_stack_entry_is_a_count_of_observations(value: Any, n: int) -> Non
     assert process_hyperparams(raw, 1)["frame_stack"] == n
 
 
-@pytest.mark.parametrize("value", [0, -2, 2.5, "2", True])
+@pytest.mark.parametrize("value", [0, -2, 2.5, float("inf"), float("nan"), "2", True])
 def test_a_bad_frame_stack_is_named(value: Any) -> None:
     with pytest.raises(ValueError, match="frame_stack must be a whole number"):
         process_hyperparams({"n_timesteps": 10, "frame_stack": value}, 1)
