@@ -464,6 +464,12 @@ def vecnormalize_for(model_path: str | os.PathLike[str]) -> Path | None:
     return cand if cand.exists() else None
 
 
+def is_recurrent(policy: Any) -> bool:
+    """Whether an SB3 policy carries an LSTM state between steps (sb3-contrib's ``RecurrentActorCriticPolicy``,
+    rl-zoo3's ``ppo_lstm``)."""
+    return hasattr(policy, "lstm_actor")
+
+
 def algo_of_model(model_path: str | os.PathLike[str]) -> str:
     """Which algorithm saved a model .zip: the run layout (``.../ALGO/ENV_ID/x.zip``), else the zip's contents."""
     p = Path(model_path)

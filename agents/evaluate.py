@@ -45,6 +45,7 @@ from agents.common import (
     algo_of_model,
     eval_zoo_expr,
     frame_stack_of,
+    is_recurrent,
     read_vecnormalize,
     run_config,
     run_env_kwargs,
@@ -138,7 +139,7 @@ class SB3Policy:
         self.deterministic = deterministic
         self.frame_stack = int(frame_stack)
         self.frames: np.ndarray | None = None
-        self.recurrent = hasattr(model.policy, "lstm_actor")
+        self.recurrent = is_recurrent(model.policy)
         self.state: Any = None
 
     def reset(self) -> None:

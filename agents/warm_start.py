@@ -45,6 +45,7 @@ import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper, VecNormalize
 
+from agents.common import is_recurrent
 from agents.residual import baseline_factory, check_mode, restart_rows, task_env
 
 
@@ -212,7 +213,7 @@ class BehaviourCloningWarmStart(BaseCallback):
                 rms = vn_now.obs_rms
                 self._obs_stats = (rms.mean.copy(), rms.var.copy(), float(rms.count))
             return
-        if not isinstance(self.model.policy, ActorCriticPolicy) or hasattr(self.model.policy, "lstm_actor"):
+        if not isinstance(self.model.policy, ActorCriticPolicy) or is_recurrent(self.model.policy):
             raise TypeError(f"BehaviourCloningWarmStart needs an on-policy feed-forward actor-critic (PPO, A2C); got "
                             f"{type(self.model.policy).__name__}")
         raw, vn = _raw_env(self.training_env)
