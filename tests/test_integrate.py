@@ -25,9 +25,7 @@ def test_scalar_weights_equal_the_array_weights_on_both_branches() -> None:
 
 def _radau(P: np.ndarray, u: np.ndarray, dt: float) -> np.ndarray:
     def f(_t: float, s: np.ndarray, uk: float) -> np.ndarray:
-        out = np.empty(drive.N_STATE)
-        drive._rhs(P[0], s, uk, 0.0, False, out)
-        return out
+        return np.array(drive.rhs_point((P[0], uk, 0.0, False), tuple(s)))
 
     s, out = np.zeros(drive.N_STATE), []
     for uk in u:

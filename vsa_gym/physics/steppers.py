@@ -123,3 +123,99 @@ def etd_row_stepper(rhs: PointRhs, stiff: tuple[int, ...]) -> Callable[..., None
                 e[j] = e[j] + (h / 6.0) * (q[0, j] + 2.0 * q[1, j] + 2.0 * q[2, j] + q[3, j])
 
     return etd_row
+
+
+# -- the tuple form: a pure point right-hand side over a row held in scalars
+#
+# The array form above passes the state through small scratch arrays; numba cannot prove that those arrays, the
+# parameter row and the output do not overlap, so every stage stores to memory and reloads the parameters.  With
+# the row held as a tuple of floats (a pure ``dy = rhs(ctx, y)``), LLVM keeps the whole substep in registers: about
+# twice as fast on the generic drive (docs/performance.md, "the drive's row in registers").  The steppers are written
+# out for a given number of states (numba has no loop over a tuple that builds a tuple), from the templates below;
+# their arithmetic is that of the array form, operation for operation, so both give the same bits.
+
+
+def _generated(name: str, source: str, namespace: dict[str, Any]) -> Callable[..., Any]:
+    """Compile ``source`` (one ``def name``) in ``namespace`` and return it jitable and inlined (plain Python under
+    ``NUMBA_DISABLE_JIT=1``)."""
+    code = compile(source, f"<vsa_gym.physics.steppers.{name}>", "exec")
+    exec(code, namespace)  # the source is this module's template, filled in with state indices only
+    return register_jitable(inline="always")(namespace[name])
+
+
+def _names(prefix: str, n: int) -> str:
+    return ", ".join(f"{prefix}{j}" for j in range(n))
+
+
+def _tuple(prefix: str, n: int) -> str:
+    return f"({_names(prefix, n)},)"
+
+
+def tuple_io(n_states: int) -> tuple[Callable[[np.ndarray], tuple[float, ...]], Callable[..., None]]:
+    """``(load, store)`` for a row of ``n_states`` floats: ``load(a) -> (a[0], ..., a[n - 1])`` and ``store(a, y)``
+    writing the tuple ``y`` back into the array ``a`` (jitable, inlined)."""
+    items = ", ".join(f"a[{j}]" for j in range(n_states))
+    load = _generated("load", f"def load(a):\n    return ({items},)\n", {})
+    store = _generated("store", f"def store(a, y):\n    {items}, = y\n", {})
+    return load, store
+
+
+def rk4_tuple_stepper(rhs: Callable[[Any, tuple[float, ...]], tuple[float, ...]], n_states: int
+                      ) -> Callable[..., tuple[float, ...]]:
+    """The classical RK4 stepper of one row held as a tuple, over a pure point right-hand side.
+
+    ``rhs(ctx, y) -> dy``: ``y`` and ``dy`` are tuples of ``n_states`` floats; ``ctx`` as in the array form.
+    Returns ``rk4(ctx, y, h, n_sub) -> y``: ``n_sub`` substeps of length ``h`` (no power channels; a device with
+    energy bookkeeping uses :func:`rk4_row_stepper`).  Same operations in the same order as :func:`rk4_row_stepper`.
+    """
+    n = n_states
+    mid = lambda src, w: ", ".join(f"y{j} + {w} * {src}{j}" for j in range(n))  # noqa: E731
+    upd = "\n".join(f"        y{j} = y{j} + (h / 6.0) * (a{j} + 2.0 * b{j} + 2.0 * c{j} + d{j})" for j in range(n))
+    source = f"""def rk4(ctx, y, h, n_sub):
+    {_names('y', n)}, = y
+    for _ in range(n_sub):
+        {_names('a', n)}, = rhs(ctx, {_tuple('y', n)})
+        {_names('b', n)}, = rhs(ctx, ({mid('a', '0.5 * h')},))
+        {_names('c', n)}, = rhs(ctx, ({mid('b', '0.5 * h')},))
+        {_names('d', n)}, = rhs(ctx, ({mid('c', 'h')},))
+{upd}
+    return {_tuple('y', n)}
+"""
+    return _generated("rk4", source, {"rhs": rhs})
+
+
+def etd_tuple_stepper(rhs: Callable[[Any, tuple[float, ...]], tuple[float, ...]], n_states: int, stiff: int
+                      ) -> Callable[..., tuple[float, ...]]:
+    """The exponential RK4 stepper (:func:`etd_row_stepper`) of one row held as a tuple, with one stiff column.
+
+    Returns ``etd(ctx, y, h, lam, w) -> y``: one substep of ``h`` with the decay rate ``lam`` (1/s) of column
+    ``stiff`` and its weights ``w = etdrk4_weights_scalar(lam, h)`` (the caller takes both at the substep's start);
+    the other columns by classical RK4.  Same operations in the same order as :func:`etd_row_stepper`.
+    """
+    n, c = n_states, stiff
+
+    def stage(src: str, w: str, at: str) -> str:
+        """The next stage's state: RK4's ``y + w src`` on the plain columns, the exponential one on column c."""
+        return ", ".join(at if j == c else f"y{j} + {w} * {src}{j}" for j in range(n))
+
+    upd = "\n".join(f"    y{j} = y{j} + (h / 6.0) * (a{j} + 2.0 * b{j} + 2.0 * c{j} + d{j})"
+                    for j in range(n) if j != c)
+    source = f"""def etd(ctx, y, h, lam, w):
+    e_half, w_half, e_full, f_u, f_ab, f_c = w
+    {_names('y', n)}, = y
+    {_names('a', n)}, = rhs(ctx, {_tuple('y', n)})
+    n0 = a{c} + lam * y{c}
+    ya = e_half * y{c} + w_half * n0
+    {_names('b', n)}, = rhs(ctx, ({stage('a', '0.5 * h', 'ya')},))
+    n1 = b{c} + lam * ya
+    yb = e_half * y{c} + w_half * n1
+    {_names('c', n)}, = rhs(ctx, ({stage('b', '0.5 * h', 'yb')},))
+    n2 = c{c} + lam * yb
+    yc = e_half * ya + w_half * (2.0 * n2 - n0)
+    {_names('d', n)}, = rhs(ctx, ({stage('c', 'h', 'yc')},))
+    n3 = d{c} + lam * yc
+    y{c} = e_full * y{c} + h * (f_u * n0 + f_ab * (n1 + n2) + f_c * n3)
+{upd}
+    return {_tuple('y', n)}
+"""
+    return _generated("etd", source, {"rhs": rhs})

@@ -56,7 +56,7 @@ counts after every reversal, e.g. truth case 37018, which a wider backlash then 
 creeps at a speed of order ``v_eps`` under a force below the breakaway level.  ``h`` is a Dahl hysteresis force
 (``dh/dt = sigma_h (v - |v| h / F_h)``, presliding travel ``F_h / sigma_h``).  Its decay ``sigma_h |v| / F_h`` is
 linear in ``h`` and stiff where the presliding travel is short against the travel of one substep: rows with a
-Dahl force are stepped by exponential RK4 (:func:`~vsa_gym.physics.steppers.etd_row_stepper`, the decay rate taken
+Dahl force are stepped by exponential RK4 (:func:`~vsa_gym.physics.steppers.etd_tuple_stepper`, the decay rate taken
 at each substep's start), which integrates that decay exactly, so it does not set the substeps; every other row
 is stepped by classical RK4.
 
@@ -84,12 +84,11 @@ import dataclasses
 
 import numba
 import numpy as np
-from numba.extending import register_jitable
 
 from vsa_gym.physics.dc_motor import DCMotorParams
 from vsa_gym.physics.integrate import etdrk4_weights_scalar
 from vsa_gym.physics.parameters import ParameterSet, param
-from vsa_gym.physics.steppers import etd_row_stepper, rk4_row_stepper
+from vsa_gym.physics.steppers import etd_tuple_stepper, rk4_tuple_stepper, tuple_io
 
 PNAMES: tuple[str, ...] = ("m", "b", "k_u", "tau_e", "F_c", "F_s", "v_s", "v_eps", "F_0", "k_c", "c_c", "frac_m",
                            "backlash", "eta", "F_h", "sigma_h", "k_contact", "eta_b",
@@ -216,18 +215,22 @@ def _forward(power: float, scale: float) -> float:
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, out: np.ndarray) -> None:
+def rhs_point(ctx: tuple[np.ndarray, float, float, bool], y: tuple[float, ...]) -> tuple[float, ...]:
+    """The drive's point right-hand side, a pure function in the tuple contract of
+    :func:`~vsa_gym.physics.steppers.rk4_tuple_stepper`: ``ctx = (P_row, u, f_ext, two_mass)``, ``y`` the row's
+    :data:`N_STATE` states, returns their time derivatives (no power channels)."""
+    P, u, fext, two_mass = ctx
     m, b, k_u, tau_e = P[0], P[1], P[2], P[3]
     F_c, F_s, v_s, v_eps, F_0 = P[4], P[5], P[6], P[7], P[8]
     frac, eta, F_h, sig = P[11], P[13], P[14], P[15]
-    xl, vl, xm, vm, F, h, mode = s[0], s[1], s[2], s[3], s[4], s[5], s[6]
+    xl, vl, xm, vm, F, h, mode = y
     b_emf = P[18] if tau_e > 0.0 else 0.0  # back-EMF through the winding's lag (voltage drive)
     if tau_e > 0.0:
         Fm = F
-        out[4] = (k_u * u - b_emf * (vm if two_mass else vl) - F) / tau_e
+        dF = (k_u * u - b_emf * (vm if two_mass else vl) - F) / tau_e
     else:
         Fm = k_u * u
-        out[4] = 0.0
+        dF = 0.0
     b = b - b_emf
     eta_b = P[17] if P[17] > 0.0 else eta
     mm = frac * m
@@ -236,7 +239,6 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
     g_v = F_c
     if F_s != 0.0:
         g_v += F_s * (np.exp(-(vl / v_s) ** 2) if d_s == 2.0 else np.exp(-abs(vl / v_s) ** d_s))
-    out[6] = 0.0
     stuck = False
     if P[19] > 0.0 and F_c + F_s > 0.0:
         # friction that sticks (set-valued at rest): the mode is +-1 sliding that way, 0 stuck; it
@@ -245,51 +247,34 @@ def _rhs(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: bool, ou
         stuck = mode == 0.0
     else:
         Ff = g_v * np.tanh(vl / v_eps) + b * vl if g_v != 0.0 else b * vl
-    if F_h > 0.0:
-        out[5] = sig * (vl - abs(vl) * h / F_h)
-    else:
-        out[5] = 0.0
+    dh = sig * (vl - abs(vl) * h / F_h) if F_h > 0.0 else 0.0
     load = Ff + F_0 + h - fext
     if two_mass:
         Ft = _tforce(P, xm - xl, vm - vl)
         if eta < 1.0 or eta_b < 1.0:  # the shaft force seen by the motor side of the mesh
             w = _forward(Ft * vm, abs(Ft) * v_eps)
             Ft = Ft * (w / eta + (1.0 - w) * eta_b)
-        out[0] = vl
-        out[1] = (Ft - load) / ml if ml > 0.0 and not stuck else 0.0
-        out[2] = vm
-        out[3] = (Fm - Ft) / mm
+        return vl, (Ft - load) / ml if ml > 0.0 and not stuck else 0.0, vm, (Fm - Ft) / mm, dF, dh, 0.0
+    if eta < 1.0 or eta_b < 1.0:
+        # the mesh passes the motor force less the rotor-side inertia force: forward eta (F_m - m_m a),
+        # back-driven (F_m - m_m a) / eta_b; the direction is that of the mesh power
+        a_f = (eta * Fm - load) / (ml + eta * mm)
+        a_b = (Fm / eta_b - load) / (ml + mm / eta_b)
+        Fmesh = Fm - mm * a_f
+        w = _forward(Fmesh * vl, abs(Fmesh) * v_eps)
+        a = w * a_f + (1.0 - w) * a_b
     else:
-        if eta < 1.0 or eta_b < 1.0:
-            # the mesh passes the motor force less the rotor-side inertia force: forward eta (F_m - m_m a),
-            # back-driven (F_m - m_m a) / eta_b; the direction is that of the mesh power
-            a_f = (eta * Fm - load) / (ml + eta * mm)
-            a_b = (Fm / eta_b - load) / (ml + mm / eta_b)
-            Fmesh = Fm - mm * a_f
-            w = _forward(Fmesh * vl, abs(Fmesh) * v_eps)
-            a = w * a_f + (1.0 - w) * a_b
-        else:
-            a = (Fm - load) / m
-        if stuck:
-            a = 0.0
-        out[0] = vl
-        out[1] = a
-        out[2] = vl
-        out[3] = a
+        a = (Fm - load) / m
+    if stuck:
+        a = 0.0
+    return vl, a, vl, a, dF, dh, 0.0
 
 
-@register_jitable
-def point_rhs(ctx: tuple[np.ndarray, float, float, bool], s: np.ndarray, ds: np.ndarray, pw: np.ndarray) -> None:
-    """The drive's point right-hand side in the steppers' contract (:mod:`vsa_gym.physics.steppers`):
-    ``ctx = (P_row, u, f_ext, two_mass)``; no power channels."""
-    P, u, fext, two_mass = ctx
-    _rhs(P, s, u, fext, two_mass, ds)
-
-
-rk4_row = rk4_row_stepper(point_rhs)
 #: column of the Dahl hysteresis force ``h`` in the state
 H_STATE = 5
-etd_row = etd_row_stepper(point_rhs, (H_STATE,))
+rk4_step = rk4_tuple_stepper(rhs_point, N_STATE)
+etd_step = etd_tuple_stepper(rhs_point, N_STATE, H_STATE)
+load_row, store_row = tuple_io(N_STATE)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -315,35 +300,37 @@ def _held_force(P: np.ndarray, s: np.ndarray, u: float, fext: float, two_mass: b
     return 0.0
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _one_step(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, s: np.ndarray, h: float,
-              ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray, nl: np.ndarray,
-              e: np.ndarray) -> None:
-    """One substep of ``h``: exponential RK4 for a row with a Dahl force, classical RK4 otherwise."""
-    if dahl:
-        lam = P[15] * abs(s[1]) / P[14]
-        e_half, w_half, e_full, f_u, f_ab, f_c = etdrk4_weights_scalar(lam, h)
-        etd_row((P, u, fext, two_mass), s, h, 1, (lam,), ((e_half,), (w_half,), (e_full,), (f_u,), (f_ab,), (f_c,)),
-                ks, pw, ya, yb, yc, nl, e)
-    else:
-        rk4_row((P, u, fext, two_mass), s, h, 1, ks, pw, ya, e)
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _dahl_step(P: np.ndarray, u: float, fext: float, two_mass: bool, y: tuple[float, ...], h: float
+               ) -> tuple[float, ...]:
+    """One exponential RK4 substep of ``h`` of a row with a Dahl force, its decay rate ``sigma_h |v_l| / F_h`` (the
+    rhs of ``h`` is ``sigma_h v_l - rate h``) taken at the substep's start."""
+    lam = P[15] * abs(y[1]) / P[14]
+    return etd_step((P, u, fext, two_mass), y, h, lam, etdrk4_weights_scalar(lam, h))
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _dahl_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, s: np.ndarray, h: float, n_sub: int,
-                   ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray, nl: np.ndarray,
-                   e: np.ndarray) -> None:
-    """``n_sub`` exponential RK4 substeps of a row with a Dahl force, its decay rate ``sigma_h |v_l| / F_h`` (the
-    rhs of ``h`` is ``sigma_h v_l - rate h``) taken at each substep's start.  A call of its own, not inlined, so the row
-    loop of the other rows (classical RK4) compiles as it did before."""
+def _one_step(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, s: np.ndarray, h: float) -> None:
+    """One substep of ``h`` applied to ``s`` in place: exponential RK4 for a row with a Dahl force, classical RK4
+    otherwise."""
+    y = load_row(s)
+    y = _dahl_step(P, u, fext, two_mass, y, h) if dahl else rk4_step((P, u, fext, two_mass), y, h, 1)
+    store_row(s, y)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _dahl_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, s: np.ndarray, h: float, n_sub: int) -> None:
+    """``n_sub`` exponential RK4 substeps (:func:`_dahl_step`) of a row with a Dahl force, applied to ``s`` in place.
+    A call of its own, not inlined, so the row loop of the other rows (classical RK4) compiles as it did before."""
+    y = load_row(s)
     for _ in range(n_sub):
-        _one_step(P, u, fext, two_mass, True, s, h, ks, pw, ya, yb, yc, nl, e)
+        y = _dahl_step(P, u, fext, two_mass, y, h)
+    store_row(s, y)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, s: np.ndarray, h: float,
-                         n_sub: int, ks: np.ndarray, pw: np.ndarray, ya: np.ndarray, yb: np.ndarray, yc: np.ndarray,
-                         nl: np.ndarray, e: np.ndarray, s0: np.ndarray) -> None:
+                         n_sub: int, s0: np.ndarray) -> None:
     """``n_sub`` substeps of a row whose friction sticks, with its mode changes located as events.
 
     The mode ``s[6]`` is +-1 (sliding that way: friction ``sign * g(v)``) or 0 (stuck: the load at rest).  A
@@ -360,7 +347,7 @@ def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, d
             if s[6] == 0.0 and s[1] != 0.0:
                 s[6] = 1.0 if s[1] > 0.0 else -1.0  # a start in motion slides
             s0[:] = s
-            _one_step(P, u, fext, two_mass, dahl, s, left, ks, pw, ya, yb, yc, nl, e)
+            _one_step(P, u, fext, two_mass, dahl, s, left)
             if events == 3:
                 # a fourth mode change in one substep would be the load chattering: the step stands (the substep
                 # is always completed), and a load it leaves moving against its mode is stopped there
@@ -386,7 +373,7 @@ def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, d
                 tau = min(max(left * (level - a0) / (a1 - a0), 0.0), left) if a1 != a0 else 0.0
             s[:] = s0  # the substep cut at the event
             if tau > 0.0:
-                _one_step(P, u, fext, two_mass, dahl, s, tau, ks, pw, ya, yb, yc, nl, e)
+                _one_step(P, u, fext, two_mass, dahl, s, tau)
             if mode != 0.0:  # the load stops: it sticks, or slides on the held force's way
                 s[1] = 0.0
                 if not two_mass:
@@ -442,14 +429,7 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
     T = u.shape[0]
     y = np.empty((T, n, 5))
     h = dt / n_sub
-    ks = np.empty((4, N_STATE))  # the RK4 stages
-    pw = np.empty((4, 0))  # no power channels
-    e_none = np.empty(0)
-    tmp = np.empty(N_STATE)
     s0 = np.empty(N_STATE)  # a substep's start, for a step cut at an event
-    yb = np.empty(N_STATE)  # the exponential stepper's other stage states (tmp is its first)
-    yc = np.empty(N_STATE)
-    nl = np.empty((4, 1))
     xs = np.empty(T)
     ix = 2 if ctrl[4] == 1.0 else 0
     for i in range(n):
@@ -481,11 +461,11 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
             y[k, i, 4] = uk
             fk = fext[k]
             if sticks:
-                _stick_slip_substeps(Pi, uk, fk, two_mass, dahl, s, h, n_sub, ks, pw, tmp, yb, yc, nl, e_none, s0)
+                _stick_slip_substeps(Pi, uk, fk, two_mass, dahl, s, h, n_sub, s0)
             elif dahl:
-                _dahl_substeps(Pi, uk, fk, two_mass, s, h, n_sub, ks, pw, tmp, yb, yc, nl, e_none)
+                _dahl_substeps(Pi, uk, fk, two_mass, s, h, n_sub)
             else:
-                rk4_row((Pi, uk, fk, two_mass), s, h, n_sub, ks, pw, tmp, e_none)
+                store_row(s, rk4_step((Pi, uk, fk, two_mass), load_row(s), h, n_sub))
     return y
 
 
