@@ -130,25 +130,22 @@ def etd_row_stepper(rhs: PointRhs, stiff: tuple[int, ...]) -> Callable[..., None
 # The array form above passes the state through small scratch arrays; numba cannot prove that those arrays, the
 # parameter row and the output do not overlap, so every stage stores to memory and reloads the parameters.  With
 # the row held as a tuple of floats (a pure ``dy = rhs(ctx, y)``), LLVM keeps the whole substep in registers: about
-# twice as fast on the generic drive (docs/performance.md, "the drive's row in registers").  The steppers are written
-# out for a given number of states (numba has no loop over a tuple that builds a tuple), from the templates below;
-# their arithmetic is that of the array form, operation for operation, so both give the same bits.
+# twice as fast on the generic drive (docs/performance.md, "the drive's row in registers").  The element-wise tuple
+# expressions are written out for a given number of states (numba has no loop over a tuple that builds a tuple), from
+# the templates below; the arithmetic is that of the array form, operation for operation, so both give the same bits.
 
 
-def _generated(name: str, source: str, namespace: dict[str, Any]) -> Callable[..., Any]:
-    """Compile ``source`` (one ``def name``) in ``namespace`` and return it jitable and inlined (plain Python under
-    ``NUMBA_DISABLE_JIT=1``)."""
+def _generated(name: str, source: str, namespace: dict[str, Any], inline: bool = True) -> Callable[..., Any]:
+    """Compile ``source`` (one ``def name``) in ``namespace`` and return it jitable (plain Python under
+    ``NUMBA_DISABLE_JIT=1``), inlined into its callers or (``inline=False``) compiled once as a function of its own."""
     code = compile(source, f"<vsa_gym.physics.steppers.{name}>", "exec")
     exec(code, namespace)  # the source is this module's template, filled in with state indices only
-    return register_jitable(inline="always")(namespace[name])
+    return register_jitable(inline="always" if inline else "never")(namespace[name])
 
 
-def _names(prefix: str, n: int) -> str:
-    return ", ".join(f"{prefix}{j}" for j in range(n))
-
-
-def _tuple(prefix: str, n: int) -> str:
-    return f"({_names(prefix, n)},)"
+def _each(n: int, item: str) -> str:
+    """``item`` written out for ``j = 0 .. n - 1``, comma separated (the elements of a tuple expression)."""
+    return ", ".join(item.format(j=j) for j in range(n))
 
 
 def tuple_io(n_states: int) -> tuple[Callable[[np.ndarray], tuple[float, ...]], Callable[..., None]]:
@@ -160,62 +157,81 @@ def tuple_io(n_states: int) -> tuple[Callable[[np.ndarray], tuple[float, ...]], 
     return load, store
 
 
-def rk4_tuple_stepper(rhs: Callable[[Any, tuple[float, ...]], tuple[float, ...]], n_states: int
-                      ) -> Callable[..., tuple[float, ...]]:
+def rk4_tuple_stepper(rhs: Callable[[Any, tuple[float, ...]], tuple[float, ...]], n_states: int,
+                      inline: bool = True) -> Callable[..., tuple[float, ...]]:
     """The classical RK4 stepper of one row held as a tuple, over a pure point right-hand side.
 
     ``rhs(ctx, y) -> dy``: ``y`` and ``dy`` are tuples of ``n_states`` floats; ``ctx`` as in the array form.
     Returns ``rk4(ctx, y, h, n_sub) -> y``: ``n_sub`` substeps of length ``h`` (no power channels; a device with
-    energy bookkeeping uses :func:`rk4_row_stepper`).  Same operations in the same order as :func:`rk4_row_stepper`.
+    energy bookkeeping uses :func:`rk4_row_stepper`).  Same operations in the same order as :func:`rk4_row_stepper`:
+    the stage sum ``k0 + 2 k1 + 2 k2 + k3`` is accumulated left to right as Python evaluates it there.  The four
+    stages are a loop around one call of ``rhs``, so numba inlines (and types) the right-hand side once, not four
+    times (four call sites made compiling the drive's roll-out several times slower).
     """
     n = n_states
-    mid = lambda src, w: ", ".join(f"y{j} + {w} * {src}{j}" for j in range(n))  # noqa: E731
-    upd = "\n".join(f"        y{j} = y{j} + (h / 6.0) * (a{j} + 2.0 * b{j} + 2.0 * c{j} + d{j})" for j in range(n))
     source = f"""def rk4(ctx, y, h, n_sub):
-    {_names('y', n)}, = y
     for _ in range(n_sub):
-        {_names('a', n)}, = rhs(ctx, {_tuple('y', n)})
-        {_names('b', n)}, = rhs(ctx, ({mid('a', '0.5 * h')},))
-        {_names('c', n)}, = rhs(ctx, ({mid('b', '0.5 * h')},))
-        {_names('d', n)}, = rhs(ctx, ({mid('c', 'h')},))
-{upd}
-    return {_tuple('y', n)}
+        yt = y
+        acc = y
+        for stage in range(4):
+            k = rhs(ctx, yt)
+            if stage == 0:
+                acc = k
+                yt = ({_each(n, "y[{j}] + 0.5 * h * k[{j}]")},)
+            elif stage == 1:
+                acc = ({_each(n, "acc[{j}] + 2.0 * k[{j}]")},)
+                yt = ({_each(n, "y[{j}] + 0.5 * h * k[{j}]")},)
+            elif stage == 2:
+                acc = ({_each(n, "acc[{j}] + 2.0 * k[{j}]")},)
+                yt = ({_each(n, "y[{j}] + h * k[{j}]")},)
+            else:
+                acc = ({_each(n, "acc[{j}] + k[{j}]")},)
+        y = ({_each(n, "y[{j}] + (h / 6.0) * acc[{j}]")},)
+    return y
 """
-    return _generated("rk4", source, {"rhs": rhs})
+    return _generated("rk4", source, {"rhs": rhs}, inline)
 
 
-def etd_tuple_stepper(rhs: Callable[[Any, tuple[float, ...]], tuple[float, ...]], n_states: int, stiff: int
-                      ) -> Callable[..., tuple[float, ...]]:
+def etd_tuple_stepper(rhs: Callable[[Any, tuple[float, ...]], tuple[float, ...]], n_states: int, stiff: int,
+                      inline: bool = True) -> Callable[..., tuple[float, ...]]:
     """The exponential RK4 stepper (:func:`etd_row_stepper`) of one row held as a tuple, with one stiff column.
 
     Returns ``etd(ctx, y, h, lam, w) -> y``: one substep of ``h`` with the decay rate ``lam`` (1/s) of column
     ``stiff`` and its weights ``w = etdrk4_weights_scalar(lam, h)`` (the caller takes both at the substep's start);
-    the other columns by classical RK4.  Same operations in the same order as :func:`etd_row_stepper`.
+    the other columns by classical RK4.  Same operations in the same order as :func:`etd_row_stepper`; one call
+    site of ``rhs``, as in :func:`rk4_tuple_stepper`.
     """
     n, c = n_states, stiff
 
-    def stage(src: str, w: str, at: str) -> str:
-        """The next stage's state: RK4's ``y + w src`` on the plain columns, the exponential one on column c."""
-        return ", ".join(at if j == c else f"y{j} + {w} * {src}{j}" for j in range(n))
+    def stage_state(w: str, z: str) -> str:
+        """The next stage's input: RK4's ``y + w k`` on the plain columns, ``z`` on the stiff one."""
+        return ", ".join(z if j == c else f"y[{j}] + {w} * k[{j}]" for j in range(n))
 
-    upd = "\n".join(f"    y{j} = y{j} + (h / 6.0) * (a{j} + 2.0 * b{j} + 2.0 * c{j} + d{j})"
-                    for j in range(n) if j != c)
     source = f"""def etd(ctx, y, h, lam, w):
     e_half, w_half, e_full, f_u, f_ab, f_c = w
-    {_names('y', n)}, = y
-    {_names('a', n)}, = rhs(ctx, {_tuple('y', n)})
-    n0 = a{c} + lam * y{c}
-    ya = e_half * y{c} + w_half * n0
-    {_names('b', n)}, = rhs(ctx, ({stage('a', '0.5 * h', 'ya')},))
-    n1 = b{c} + lam * ya
-    yb = e_half * y{c} + w_half * n1
-    {_names('c', n)}, = rhs(ctx, ({stage('b', '0.5 * h', 'yb')},))
-    n2 = c{c} + lam * yb
-    yc = e_half * ya + w_half * (2.0 * n2 - n0)
-    {_names('d', n)}, = rhs(ctx, ({stage('c', 'h', 'yc')},))
-    n3 = d{c} + lam * yc
-    y{c} = e_full * y{c} + h * (f_u * n0 + f_ab * (n1 + n2) + f_c * n3)
-{upd}
-    return {_tuple('y', n)}
+    yt = y
+    acc = y
+    n0 = n1 = n2 = n3 = z_a = 0.0
+    for stage in range(4):
+        k = rhs(ctx, yt)
+        nl = k[{c}] + lam * yt[{c}]
+        if stage == 0:
+            acc = k
+            n0 = nl
+            z_a = e_half * y[{c}] + w_half * n0
+            yt = ({stage_state("0.5 * h", "z_a")},)
+        elif stage == 1:
+            acc = ({_each(n, "acc[{j}] + 2.0 * k[{j}]")},)
+            n1 = nl
+            yt = ({stage_state("0.5 * h", f"e_half * y[{c}] + w_half * n1")},)
+        elif stage == 2:
+            acc = ({_each(n, "acc[{j}] + 2.0 * k[{j}]")},)
+            n2 = nl
+            yt = ({stage_state("h", "e_half * z_a + w_half * (2.0 * n2 - n0)")},)
+        else:
+            acc = ({_each(n, "acc[{j}] + k[{j}]")},)
+            n3 = nl
+    z = e_full * y[{c}] + h * (f_u * n0 + f_ab * (n1 + n2) + f_c * n3)
+    return ({", ".join("z" if j == c else f"y[{j}] + (h / 6.0) * acc[{j}]" for j in range(n))},)
 """
-    return _generated("etd", source, {"rhs": rhs})
+    return _generated("etd", source, {"rhs": rhs}, inline)

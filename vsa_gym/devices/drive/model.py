@@ -273,7 +273,8 @@ def rhs_point(ctx: tuple[np.ndarray, float, float, bool], y: tuple[float, ...]) 
 #: column of the Dahl hysteresis force ``h`` in the state
 H_STATE = 5
 rk4_step = rk4_tuple_stepper(rhs_point, N_STATE)
-etd_step = etd_tuple_stepper(rhs_point, N_STATE, H_STATE)
+rk4_call = rk4_tuple_stepper(rhs_point, N_STATE, inline=False)
+etd_call = etd_tuple_stepper(rhs_point, N_STATE, H_STATE, inline=False)
 load_row, store_row = tuple_io(N_STATE)
 
 
@@ -306,7 +307,7 @@ def _dahl_step(P: np.ndarray, u: float, fext: float, two_mass: bool, y: tuple[fl
     """One exponential RK4 substep of ``h`` of a row with a Dahl force, its decay rate ``sigma_h |v_l| / F_h`` (the
     rhs of ``h`` is ``sigma_h v_l - rate h``) taken at the substep's start."""
     lam = P[15] * abs(y[1]) / P[14]
-    return etd_step((P, u, fext, two_mass), y, h, lam, etdrk4_weights_scalar(lam, h))
+    return etd_call((P, u, fext, two_mass), y, h, lam, etdrk4_weights_scalar(lam, h))
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -314,7 +315,7 @@ def _one_step(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, 
     """One substep of ``h`` applied to ``s`` in place: exponential RK4 for a row with a Dahl force, classical RK4
     otherwise."""
     y = load_row(s)
-    y = _dahl_step(P, u, fext, two_mass, y, h) if dahl else rk4_step((P, u, fext, two_mass), y, h, 1)
+    y = _dahl_step(P, u, fext, two_mass, y, h) if dahl else rk4_call((P, u, fext, two_mass), y, h, 1)
     store_row(s, y)
 
 
