@@ -2,6 +2,7 @@
 
     python -m benchmarks.drive_kernel_speed                       (this checkout only)
     python -m benchmarks.drive_kernel_speed --against DIR [--rounds R]
+    python -m benchmarks.drive_kernel_speed --against DIR --compile-only
 
 With ``--against DIR`` (another checkout, e.g. ``git worktree add /tmp/before COMMIT``) both run alternately in
 fresh single-threaded interpreters and the last column is ``time(DIR) / time(this)`` (> 1: this checkout is
@@ -11,6 +12,8 @@ faster; :mod:`benchmarks.checkouts`).  Figures (best of the rounds):
   2 ms at 8 RK4 substeps, per row and substep (4 right-hand sides), for the nominal drive with a 0.19 ms current
   loop and with Coulomb friction, a Stribeck curve, a compliant shaft, a backlash, a mesh loss or a Dahl loop (a
   Dahl row takes the exponential stepper, whose substep costs more);
+* ``compile s`` (``--compile``, or alone with ``--compile-only``): the first roll-out in an interpreter whose numba
+  cache is a new empty folder, i.e. compiling the roll-out with everything it calls (what a fresh install pays once);
 * ``roll-out dahl 5 um ms/row``: the same 6000 samples with a Dahl loop of 5 um presliding travel at the substeps
   the model chooses itself (8 per sample; before the exponential stepper the Dahl decay at 1 m/s set them: 267), per
   row;
@@ -41,15 +44,39 @@ EFFECTS: dict[str, dict[str, float]] = {
 }
 
 
+def _compile_seconds() -> float:
+    """Seconds of the first roll-out in a fresh interpreter of this checkout with an empty numba cache."""
+    import subprocess
+    import sys
+
+    import vsa_gym
+
+    code = ("import time; import numpy as np; from vsa_gym.devices.drive import model as d; "
+            "t = time.perf_counter(); d.simulate(d.DriveParams().vector(2), np.zeros(10), 1e-3, n_sub=4); "
+            "print(time.perf_counter() - t)")
+    root = Path(vsa_gym.__file__).resolve().parents[1]
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache, "PYTHONPATH": str(root)}
+        out = subprocess.run([sys.executable, "-c", code], cwd=root, env=env, capture_output=True, text=True,
+                             check=True)
+    return float(out.stdout.strip().splitlines()[-1])
+
+
 def measure() -> dict[str, float]:
     """Time this interpreter's checkout (see the module docstring)."""
     import vsa_gym
     from vsa_gym.devices.drive import model as drive
 
+    out: dict[str, float] = {}
+    if os.environ.get("DRIVE_SPEED_COMPILE") in ("1", "only"):
+        out["compile s"] = _compile_seconds()
+        if os.environ["DRIVE_SPEED_COMPILE"] == "only":
+            out["_file"] = vsa_gym.__file__  # type: ignore[assignment]
+            return out
+
     base = drive.DriveParams(m=9.4, b=2.5, k_u=3.8, tau_e=1.9e-4, v_eps=3e-4).vector(1)
     n, T, dt, n_sub = 6, 6000, 2e-3, 8
     u = 2.0 * np.sin(np.arange(T) * dt * 2 * np.pi)
-    out: dict[str, float] = {}
     for name, values in EFFECTS.items():
         P = np.repeat(base, n, axis=0)
         for k, v in values.items():
@@ -91,9 +118,13 @@ def main(argv: list[str] | None = None) -> None:
 
     ap = speed_parser(__doc__)
     ap.add_argument("--identify", action="store_true", help="also time one identification (minutes)")
+    ap.add_argument("--compile", action="store_true", help="also time compiling the roll-out from an empty cache")
+    ap.add_argument("--compile-only", action="store_true", help="time only compiling the roll-out")
     args = ap.parse_args(argv)
     if args.identify:
         os.environ["DRIVE_SPEED_IDENTIFY"] = "1"
+    if args.compile or args.compile_only:
+        os.environ["DRIVE_SPEED_COMPILE"] = "only" if args.compile_only else "1"
     compare(Path(__file__), args.against, args.rounds, "figure", cache_env="DRIVE_SPEED_CACHE")
 
 
