@@ -335,18 +335,32 @@ def compare(got: Golden, want: Golden, tol: float = 1e-12) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Compare (default), ``--write`` the stored copies, or ``--save DIR`` / ``--against DIR`` a recording of another
+    checkout: a change meant to keep results is checked bit for bit on one machine with ``--tol 0``, e.g. from a
+    worktree of the commit before it, ``PYTHONPATH=. python /path/to/this/checkout/tests/goldens/record.py --save
+    /tmp/g``, then here ``python -m tests.goldens.record --against /tmp/g --tol 0``."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("groups", nargs="*", default=list(GROUPS))
     ap.add_argument("--write", action="store_true", help="store the recorded goldens (default: compare)")
+    ap.add_argument("--save", type=Path, metavar="DIR", help="write the recorded groups to DIR/<group>.npz instead")
+    ap.add_argument("--against", type=Path, metavar="DIR", help="compare with DIR/<group>.npz (from --save)")
+    ap.add_argument("--tol", type=float, default=None, help="tolerance for every group (default: TOLERANCE)")
     args = ap.parse_args(argv)
     status = 0
     for g in args.groups:
         got = GROUPS[g]()
-        if args.write:
-            np.savez_compressed(path_of(g), **got)
-            print(f"{g}: {len(got)} arrays -> {path_of(g)}")
+        if args.write or args.save:
+            where = path_of(g) if args.write else args.save / f"{g}.npz"
+            where.parent.mkdir(parents=True, exist_ok=True)
+            np.savez_compressed(where, **got)
+            print(f"{g}: {len(got)} arrays -> {where}")
             continue
-        bad = compare(got, load(g), TOLERANCE.get(g, 1e-12))
+        if args.against:
+            with np.load(args.against / f"{g}.npz") as z:
+                want = {k: z[k] for k in z.files}
+        else:
+            want = load(g)
+        bad = compare(got, want, TOLERANCE.get(g, 1e-12) if args.tol is None else args.tol)
         print(f"{g}: {len(got)} arrays, {len(bad)} differences")
         for line in bad[:40]:
             print("  " + line)
