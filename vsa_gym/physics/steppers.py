@@ -151,7 +151,7 @@ def _each(n: int, item: str) -> str:
 def tuple_io(n_states: int) -> tuple[Callable[[np.ndarray], tuple[float, ...]], Callable[..., None]]:
     """``(load, store)`` for a row of ``n_states`` floats: ``load(a) -> (a[0], ..., a[n - 1])`` and ``store(a, y)``
     writing the tuple ``y`` back into the array ``a`` (jitable, inlined)."""
-    items = ", ".join(f"a[{j}]" for j in range(n_states))
+    items = _each(n_states, "a[{j}]")
     load = _generated("load", f"def load(a):\n    return ({items},)\n", {})
     store = _generated("store", f"def store(a, y):\n    {items}, = y\n", {})
     return load, store

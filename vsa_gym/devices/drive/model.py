@@ -273,8 +273,8 @@ def rhs_point(ctx: tuple[np.ndarray, float, float, bool], y: tuple[float, ...]) 
 #: column of the Dahl hysteresis force ``h`` in the state
 H_STATE = 5
 #: the plain RK4 rows' stepper, inlined into the roll-out; the stick-slip and Dahl paths call steppers compiled once as
-#: functions of their own (``*_call``): inlined there too, they made compiling the roll-out twice as slow for no
-#: measurable gain
+#: functions of their own (``*_call``): inlined there too, they made compiling the roll-out slower (measure with
+#: ``python -m benchmarks.drive_kernel_speed --compile-only``)
 rk4_step = rk4_tuple_stepper(rhs_point, N_STATE)
 rk4_call = rk4_tuple_stepper(rhs_point, N_STATE, inline=False)
 etd_call = etd_tuple_stepper(rhs_point, N_STATE, H_STATE, inline=False)
