@@ -15,6 +15,11 @@ candidates ranked too low to fit are fitted too) can only change a case in which
 of the shooting windows had no candidate that passed.  The nominal misfit is not stored, so this also lists
 cases the rule leaves alone (a misfit within 3x the floor).
 
+``--rule emf-share`` (twentieth session: ``DriveAdapter.restarts`` also refits a mesh loss with all of ``b`` as
+back-EMF) can only change a case whose record leaves the back-EMF share free (a voltage input with a lag, a
+sidecar that does not give ``b_emf``): the record is drawn again from the case's seed and its adapter asked.  The
+list is every such case, whether or not a mesh loss was ranked or fitted in it.
+
 Prints, per folder, the case seeds to give ``benchmarks.identify_truth --redo``.
 """
 
@@ -25,10 +30,15 @@ import json
 import math
 import re
 import sys
+import tempfile
 from pathlib import Path
 from typing import Any
 
 from benchmarks.truth_compare import bare, phase
+from tests.truthsim.scenarios import draw_case, write_case
+from vsa_gym.devices.drive.adapter import EMF_SHARE
+from vsa_gym.identify.adapters import make_adapter
+from vsa_gym.identify.record import load_record
 
 BRANCH = re.compile(r"from runner-up (\w+): $")
 
@@ -72,7 +82,14 @@ def round_one_without_passer(case: dict[str, Any]) -> bool:
                for cands in lines.values())
 
 
-RULES = {"polish": reachable, "low-rank": round_one_without_passer}
+def emf_share_free(case: dict[str, Any]) -> bool:
+    """Whether the record of ``case``, drawn again from its seed, leaves the back-EMF share of ``b`` free."""
+    drawn = draw_case(case["seed"], tuple(case["effects"]), rate=case.get("rate"), duration=case.get("duration"))
+    with tempfile.TemporaryDirectory(prefix="rule_reach_") as tmp:
+        return EMF_SHARE in make_adapter(load_record(write_case(drawn, tmp))).free
+
+
+RULES = {"polish": reachable, "low-rank": round_one_without_passer, "emf-share": emf_share_free}
 
 
 def main(argv: list[str] | None = None) -> int:
