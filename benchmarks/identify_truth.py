@@ -51,6 +51,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):  # o
 
 import numpy as np  # noqa: E402
 
+from benchmarks.rule_reach import SPEC_RULES  # noqa: E402
 from tests.truthsim.scenarios import EFFECTS, MAIN, draw_case, write_case  # noqa: E402
 
 REL_TOL = 0.15
@@ -291,6 +292,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--redo", type=int, nargs="+", default=None, metavar="CASE_SEED",
                     help="re-run only these case seeds of OUT/results.json (e.g. after a fix of a crash) and "
                          "re-summarise; the other cases are kept as they are")
+    ap.add_argument("--kind", choices=("single", "pair", "control"), nargs="+", default=None,
+                    help="run only the drawn cases of these kinds (their case seeds as in the whole set)")
+    ap.add_argument("--reach", choices=sorted(SPEC_RULES), default=None,
+                    help="run only the drawn cases this rule of benchmarks.rule_reach can reach (decided from the "
+                         "record alone; the case seeds as in the whole set), e.g. a change's before/after check")
     ap.add_argument("--join", nargs="+", default=None, metavar="DIR",
                     help="pool the cases of these earlier OUT folders (their results.json) into one summary in "
                          "--out; nothing is re-run")
@@ -311,6 +317,10 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     specs = case_specs(args.draws, args.pairs, args.controls, args.seed, args.only, args.quick, args.rate,
                        args.duration)
+    if args.kind:
+        specs = [s for s in specs if s["kind"] in args.kind]
+    if args.reach:
+        specs = [s for s in specs if SPEC_RULES[args.reach](s)]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     kept: list[dict[str, Any]] = []

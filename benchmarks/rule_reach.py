@@ -89,7 +89,9 @@ def emf_share_free(case: dict[str, Any]) -> bool:
         return EMF_SHARE in make_adapter(load_record(write_case(drawn, tmp))).free
 
 
-RULES = {"polish": reachable, "low-rank": round_one_without_passer, "emf-share": emf_share_free}
+#: rules decided from the record alone (a case spec of ``benchmarks.identify_truth`` is enough): its ``--reach``
+SPEC_RULES = {"emf-share": emf_share_free}
+RULES = {"polish": reachable, "low-rank": round_one_without_passer, **SPEC_RULES}
 
 
 def main(argv: list[str] | None = None) -> int:
