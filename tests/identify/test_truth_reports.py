@@ -120,3 +120,19 @@ def test_rule_reach_low_rank_lists_cases_whose_round_one_had_no_passer_in_some_r
     assert round_one_without_passer({"candidates": [refused]})
     assert not round_one_without_passer({"candidates": [passed, refused, branch]})
     assert round_one_without_passer({"candidates": [passed, refused, windows]})
+
+
+def test_rule_reach_emf_share_lists_the_records_that_leave_the_back_emf_share_free(tmp_path):
+    from benchmarks.rule_reach import emf_share_free
+    from tests.truthsim.scenarios import draw_case, write_case
+    from vsa_gym.identify.record import load_record
+
+    for seed, effects, free in ((107020, ["gearbox_efficiency", "viscous_friction"], True),
+                                (97049, ["coulomb_friction", "viscous_friction"], False)):
+        spec = {"seed": seed, "effects": effects, "rate": None, "duration": None}
+        assert emf_share_free(spec) is free, seed
+        rec = load_record(write_case(draw_case(seed, tuple(effects)), tmp_path / str(seed)))
+        # the share is free exactly where a voltage input drives a lagged model whose sidecar does not split b
+        splits = "b_emf" in rec.model.get("params", {})
+        lagged = float(rec.model["params"].get("tau_e", 0.0)) > 0.0
+        assert free == ("voltage" in rec.inputs and lagged and not splits), seed
