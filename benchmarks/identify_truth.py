@@ -297,6 +297,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--reach", choices=sorted(SPEC_RULES), default=None,
                     help="run only the drawn cases this rule of benchmarks.rule_reach can reach (decided from the "
                          "record alone; the case seeds as in the whole set), e.g. a change's before/after check")
+    ap.add_argument("--unreached", choices=sorted(SPEC_RULES), default=None,
+                    help="run only the drawn cases this rule cannot reach (the rest of a set run with --reach)")
     ap.add_argument("--join", nargs="+", default=None, metavar="DIR",
                     help="pool the cases of these earlier OUT folders (their results.json) into one summary in "
                          "--out; nothing is re-run")
@@ -321,6 +323,8 @@ def main(argv: list[str] | None = None) -> int:
         specs = [s for s in specs if s["kind"] in args.kind]
     if args.reach:
         specs = [s for s in specs if SPEC_RULES[args.reach](s)]
+    if args.unreached:
+        specs = [s for s in specs if not SPEC_RULES[args.unreached](s)]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     kept: list[dict[str, Any]] = []
