@@ -206,8 +206,8 @@ class DriveAdapter(Adapter):
         the command is in docs/identification.md, "Nuisance parameters that only matter once an effect is in").
         Behind a lossy mesh a back-EMF damping is scaled by the mesh and a load friction is not: truth case 107020
         (a voltage-driven gear motor whose ``b`` is 99.6 % back-EMF) replays at validation 0.00015 at the truth's
-        loss with share 0.9956 and at 0.225 with share 0.5, and its fit from the nominal share 0 stopped at 0.59
-        with the back-driven loss 0.70 (truth 0.27)."""
+        loss with share 0.9956 and at 0.225 with share 0.5; fitted from the nominal share 0 it stopped at share 0.59,
+        a loss of 0.197 and a back-driven loss of 0.70 (truth 0.27)."""
         key = f"base.{EMF_SHARE}"
         if effect in SIDE_SENSITIVE and key in theta and theta[key] < 0.5:
             return {key: 1.0}
@@ -488,4 +488,4 @@ class DriveAdapter(Adapter):
 
 
 
-__all__ = ["EMF_SHARE", "SIDE_SENSITIVE", "SPLITTING", "START_SHARE", "DriveAdapter"]
+__all__ = ["EMF_SHARE", "START_SHARE", "DriveAdapter"]
