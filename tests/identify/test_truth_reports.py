@@ -136,3 +136,16 @@ def test_rule_reach_emf_share_lists_the_records_that_leave_the_back_emf_share_fr
         splits = "b_emf" in rec.model.get("params", {})
         lagged = float(rec.model["params"].get("tau_e", 0.0)) > 0.0
         assert free == ("voltage" in rec.inputs and lagged and not splits), seed
+
+
+def test_substep_accuracy_shows_the_replay_converged_at_the_models_own_substeps(capsys) -> None:
+    from benchmarks.substep_accuracy import main as substep_accuracy
+
+    # the golden nominal truth record (200 Hz, a 0.18 ms current loop): the model's rule asks for 19 substeps
+    assert substep_accuracy(["20250060", "", "--duration", "2", "--substeps", "1", "19", "38"]) == 0
+    out = capsys.readouterr().out
+    assert "the model's rule: 19 substeps" in out
+    lines = {int(line.split()[0]): line for line in out.splitlines() if "substeps:" in line}
+    assert "diverged" in lines[1]
+    at_rule, finer = (float(lines[n].split("NRMSE")[1].split()[0]) for n in (19, 38))
+    assert at_rule == pytest.approx(finer, rel=1e-3)
