@@ -30,14 +30,25 @@ PHASES = ("_forward", "_with", "_reordered", "_together", "_swap", "_runner_up",
           "simulate_kernel")
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def case_parser(description: str) -> argparse.ArgumentParser:
+    """A parser of one truth-simulator case as :mod:`benchmarks.identify_truth` draws it: ``seed``, ``effects``
+    (comma separated; :func:`planted` splits them), ``--rate`` and ``--duration``."""
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("seed", type=int, help="case seed (e.g. 11052)")
     ap.add_argument("effects", help="planted effects, comma separated ('' for a nominal control)")
     ap.add_argument("--rate", type=float, default=None, help="sample rate as the case set draws it (Hz)")
     ap.add_argument("--duration", type=float, default=None, help="record length as the case set draws it (s)")
-    args = ap.parse_args(argv)
-    effects = tuple(e for e in args.effects.split(",") if e)
+    return ap
+
+
+def planted(args: argparse.Namespace) -> tuple[str, ...]:
+    """The planted effects of a :func:`case_parser` namespace."""
+    return tuple(e for e in args.effects.split(",") if e)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = case_parser(__doc__.splitlines()[0]).parse_args(argv)
+    effects = planted(args)
     with tempfile.TemporaryDirectory(prefix="truthsim_") as tmp:
         csv = write_case(draw_case(args.seed, effects, rate=args.rate, duration=args.duration), tmp)
         identify(str(csv), candidates=["coulomb_friction"])  # load the compiled kernels outside the profile

@@ -12,11 +12,11 @@ twenty-first session's look at the drive lag's share of the substeps (docs/ident
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 
 import numpy as np
 
+from benchmarks.identify_profile import case_parser, planted
 from tests.truthsim.scenarios import draw_case, write_case
 from vsa_gym.devices.drive.model import fastest_rate
 from vsa_gym.identify.adapters import make_adapter
@@ -24,14 +24,10 @@ from vsa_gym.identify.record import load_record
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("seed", type=int, help="case seed (e.g. 11052)")
-    ap.add_argument("effects", help="planted effects, comma separated ('' for a nominal control)")
-    ap.add_argument("--rate", type=float, default=None, help="sample rate as the case set draws it (Hz)")
-    ap.add_argument("--duration", type=float, default=None, help="record length as the case set draws it (s)")
+    ap = case_parser(__doc__.splitlines()[0])
     ap.add_argument("--substeps", type=int, nargs="+", default=[1, 2, 4, 8, 16, 32])
     args = ap.parse_args(argv)
-    effects = tuple(e for e in args.effects.split(",") if e)
+    effects = planted(args)
     with tempfile.TemporaryDirectory(prefix="truthsim_") as tmp:
         case = draw_case(args.seed, effects, rate=args.rate, duration=args.duration)
         ad = make_adapter(load_record(str(write_case(case, tmp))))
