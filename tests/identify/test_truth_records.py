@@ -179,13 +179,15 @@ def test_dahl_loop_started_on_a_grid_of_travels_is_named_not_coulomb_friction(tm
 
 def test_backlash_beside_coulomb_friction_is_named_when_it_removes_most_of_what_is_left(tmp_path):
     """Case 7050 (a gear motor's backlash and Coulomb friction, open-loop steps at 200 Hz): beside the friction
-    the gap removes 65 % of the validation misfit above the noise floor.  A further effect needs most of what is
-    left (``min_share_next`` 0.5; at 0.7 the gap was rejected and the friction named alone, 14 % off); both are
-    named within 15 %.  The candidates are the friction and the transmission's look-alikes."""
+    the gap removes most of the validation misfit above the noise floor, as a further effect must
+    (``min_share_next`` 0.5), and both are named within 15 %.  (When that rule was set the gap removed 65 %, and at
+    0.7 it was rejected and the friction named alone, 14 % off; since the drive lag's wider substep reach,
+    :func:`vsa_gym.devices.drive.model.row_substeps`, it removes 96 %.)  The candidates are the friction and the
+    transmission's look-alikes."""
     res = _pair_named_within_15_percent(tmp_path, 7050, ("backlash", "coulomb_friction"),
                                         ("coulomb_friction", "backlash", "transmission_compliance"))
     gap = next(c for c in res.candidates if c.name == "backlash" and c.accepted)
-    assert 0.5 <= gap.share < 0.7
+    assert gap.share >= 0.5
 
 
 def test_backlash_beside_friction_that_sticks_keeps_its_width(tmp_path):
