@@ -26,7 +26,7 @@ from tests.truthsim.scenarios import draw_case, write_case  # noqa: E402
 from vsa_gym.identify.pipeline import identify  # noqa: E402
 
 #: the selection's phases reported (method names of ``Identifier``, and the kernel)
-PHASES = ("_forward", "_with", "_reordered", "_together", "_swap", "_runner_up", "_second_opinion",
+PHASES = ("_forward", "_with", "_reordered", "_together", "_swap", "_runner_up", "_on_windows", "_second_opinion",
           "simulate_kernel")
 
 
