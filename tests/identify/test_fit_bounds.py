@@ -53,3 +53,24 @@ def test_a_shape_the_record_presses_to_its_bound_stays_there(coulomb_case):
                    masks, ("hysteresis",), 5)
     assert "hysteresis.x_h" in fm.at_bound
     assert fm.theta()["hysteresis.x_h"] == pytest.approx(x_h.lower, rel=1e-2)
+
+
+def test_a_replay_that_runs_away_to_huge_finite_values_is_scored_like_a_diverged_one() -> None:
+    """Truth case 149054 (a voltage drive at 200 Hz) crashed ``identify`` when a candidate row's replay ran away to
+    finite values near 1e300: its squared residuals overflowed and the least squares' SVD met infinities.  Such a
+    row is capped at 1e6 standard deviations per sample, as a NaN row is."""
+    import types
+
+    import numpy as np
+
+    from vsa_gym.identify.fitting import SimulationErrorProblem
+
+    measured = np.linspace(0.0, 1.0, 50)[:, None]
+    runaway = np.concatenate([np.linspace(0.0, 1.0, 50)[:, None, None],
+                              np.full((50, 1, 1), 1e300), np.full((50, 1, 1), np.nan)], axis=1)
+    ad = types.SimpleNamespace(measured=measured, simulate=lambda theta, n, until=None, rows=None: runaway)
+    spec = types.SimpleNamespace(typical=1.0, absent=0.0)
+    prob = SimulationErrorProblem(ad, {}, ["k"], [spec], np.ones(50, dtype=bool))
+    r = prob.batch(np.zeros((3, 1)))
+    assert np.all(np.isfinite(r)) and np.max(np.abs(r)) == 1e6
+    assert np.isfinite(np.dot(r[1], r[1])) and np.allclose(r[0], 0.0)
