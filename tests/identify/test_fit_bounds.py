@@ -4,11 +4,14 @@ whole range as its CI; one the record presses there stays, and rejects its effec
 
 from __future__ import annotations
 
+import types
+
+import numpy as np
 import pytest
 
 from tests.truthsim.scenarios import draw_case, write_case
 from vsa_gym.identify.adapters import make_adapter
-from vsa_gym.identify.fitting import fit_model
+from vsa_gym.identify.fitting import SimulationErrorProblem, fit_model
 from vsa_gym.identify.record import load_record
 
 
@@ -59,12 +62,6 @@ def test_a_replay_that_runs_away_to_huge_finite_values_is_scored_like_a_diverged
     """Truth case 149054 (a voltage drive at 200 Hz) crashed ``identify`` when a candidate row's replay ran away to
     finite values near 1e300: its squared residuals overflowed and the least squares' SVD met infinities.  Such a
     row is capped at 1e6 standard deviations per sample, as a NaN row is."""
-    import types
-
-    import numpy as np
-
-    from vsa_gym.identify.fitting import SimulationErrorProblem
-
     measured = np.linspace(0.0, 1.0, 50)[:, None]
     runaway = np.concatenate([np.linspace(0.0, 1.0, 50)[:, None, None],
                               np.full((50, 1, 1), 1e300), np.full((50, 1, 1), np.nan)], axis=1)

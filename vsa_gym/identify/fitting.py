@@ -61,7 +61,7 @@ class SimulationErrorProblem:
         r = (y[self.mask] - self.ad.measured[self.mask][:, None, :]) / self.sd
         # a diverged row (NaN) or one that runs away to huge finite values is scored as equally bad: 1e6 standard
         # deviations per sample, so that the least squares' sums and its Jacobian stay finite
-        r = np.clip(np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6), -1e6, 1e6)
+        r = np.clip(np.nan_to_num(r, nan=1e6), -1e6, 1e6)
         return np.transpose(r, (1, 0, 2)).reshape(y.shape[1], -1)
 
     def _points(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

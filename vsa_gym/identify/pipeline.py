@@ -85,6 +85,11 @@ def shooting_window(record: Record) -> float:
     return float(np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2, 1.0))
 
 
+def runs_away(nominal: FittedModel, fm: FittedModel) -> bool:
+    """Whether the full replay ran away: the nominal model and ``fm`` both validate above :data:`RUNAWAY_NRMSE`."""
+    return nominal.val_score > RUNAWAY_NRMSE and fm.val_score > RUNAWAY_NRMSE
+
+
 @dataclasses.dataclass(frozen=True)
 class WindowSelection:
     """A selection on shooting windows of ``window`` s (:meth:`Identifier._on_windows`): the model ``selected``
@@ -159,8 +164,7 @@ class Identifier(LookAheads):
         if not forced:
             names, solo = self._names(ad), {}
             current, cands, ambiguous, first = self._forward(ad, nominal, names, masks, floors, 1, solo)
-            if (self.shooting == "auto" and ad.can_shoot() and current.val_score > DRIFT_NRMSE
-                    and not (nominal.val_score > RUNAWAY_NRMSE and current.val_score > RUNAWAY_NRMSE)):
+            if self._drifts(ad, current) and not runs_away(nominal, current):
                 # the full replay drifts: the second opinion on shooting windows comes before the runner-up's
                 # branch, which is fitted on the same rough simulation error and is taken only where that opinion
                 # does not settle the drift
@@ -168,8 +172,7 @@ class Identifier(LookAheads):
             if shot is None or not shot.settles(current, self.margin, DRIFT_NRMSE):
                 current, cands, ambiguous = self._runner_up(ad, current, cands, ambiguous, first, names, masks,
                                                             floors, solo)
-        runaway = nominal.val_score > RUNAWAY_NRMSE and current.val_score > RUNAWAY_NRMSE
-        if forced or (self.shooting == "auto" and runaway and ad.can_shoot()):
+        if forced or (self.shooting == "auto" and runs_away(nominal, current) and ad.can_shoot()):
             # the full replay ran away and no effect brought it back: select on windows started from the
             # measured state (truncated simulation error), where the least squares cannot stall on a drift
             window = float(self.shooting) if forced else shooting_window(record)
@@ -190,12 +193,17 @@ class Identifier(LookAheads):
                 ad.set_shooting(window)
                 mode += (f"; the selected model still runs away in a full replay (validation NRMSE "
                          f"{refit.val_score:.3g}), so the held-out part is scored on windows too")
-        elif self.shooting == "auto" and current.val_score > DRIFT_NRMSE and ad.can_shoot():
+        elif self._drifts(ad, current):
             current, cands, ambiguous, mode = self._second_opinion(
                 shot or self._on_windows(ad, record, masks, floors), current, cands, ambiguous, mode)
         self.result_ = scored_result(record, ad, nominal, current, cands, masks, test_record)
         self.result_ = dataclasses.replace(self.result_, ambiguous=ambiguous, replay_mode=mode, noise_floor=floor)
         return self
+
+    def _drifts(self, ad: Adapter, fm: FittedModel) -> bool:
+        """Whether ``fm`` leaves a full open-loop replay that drifts, where the estimator may shoot: the case for the
+        second opinion on windows (:meth:`_second_opinion`)."""
+        return self.shooting == "auto" and ad.can_shoot() and fm.val_score > DRIFT_NRMSE
 
     def _on_windows(self, ad: Adapter, record: Record, masks: dict[str, np.ndarray],
                     floors: dict[str, float]) -> WindowSelection:
@@ -219,9 +227,8 @@ class Identifier(LookAheads):
         only where it validates better by the margin in the same full replay, so both are judged on one scale.
         It is asked before the round-one runner-up's branch of the full replay (:meth:`fit`), a look-again
         fitted on the same rough simulation error: where the window model wins and no longer drifts (validation
-        within :data:`DRIFT_NRMSE`) that branch is not taken.  Before the twenty-second session the branch ran
-        first; on the truth sets then run (762 cases) it ran beside a second opinion twice and was adopted in
-        neither, and on the 30 s timing set it was 7.7 s of case 11054's 43 s.
+        within :data:`DRIFT_NRMSE`) that branch is not taken (until the twenty-second session it ran first;
+        docs/identification.md gives what it cost on timing case 11054).
         """
         window, more, shot_ambiguous, refit = shot.window, shot.candidates, shot.ambiguous, shot.refit
         if refit is None:
@@ -595,6 +602,6 @@ def identify(data: str, *, max_effects: int = 2, replay: str | None = None, cand
     return est.result_
 
 
-__all__ = ["Candidate", "EffectSpec", "FittedModel", "IdentificationResult", "Identifier", "compared",
-           "effect_evidence", "identify", "validation_blind",
+__all__ = ["Candidate", "EffectSpec", "FittedModel", "IdentificationResult", "Identifier", "WindowSelection",
+           "compared", "effect_evidence", "identify", "runs_away", "validation_blind",
            "output_metrics", "residual_tests", "without_effect"]
