@@ -57,6 +57,14 @@ class Adapter:
     #: effects a multiple-shooting replay cannot see
     SHOOTING_BLIND: tuple[str, ...] = ()
 
+    #: multiple of the substeps the device's own rule asks for (raised by
+    #: :func:`vsa_gym.identify.convergence.refined` where the selected model's replay is not converged)
+    refine: int = 1
+
+    def can_refine(self) -> bool:
+        """Whether :attr:`refine` applies to this adapter's replay (a device adapter may offer it)."""
+        return False
+
     def can_shoot(self) -> bool:
         """Whether :meth:`set_shooting` applies to this record (a device adapter may offer it)."""
         return False

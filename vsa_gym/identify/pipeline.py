@@ -32,6 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter, make_adapter
+from vsa_gym.identify.convergence import refined
 from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.fitting import (
     compared,
@@ -196,6 +197,8 @@ class Identifier(LookAheads):
         elif self._drifts(ad, current):
             current, cands, ambiguous, mode = self._second_opinion(
                 shot or self._on_windows(ad, record, masks, floors), current, cands, ambiguous, mode)
+        current, note = refined(ad, current, masks, floor, lambda fm: self._refit_refined(ad, fm, masks))
+        mode += f"; {note}" if note else ""
         self.result_ = scored_result(record, ad, nominal, current, cands, masks, test_record)
         self.result_ = dataclasses.replace(self.result_, ambiguous=ambiguous, replay_mode=mode, noise_floor=floor)
         return self
@@ -250,6 +253,14 @@ class Identifier(LookAheads):
             f"{current.val_score:.3g} with {named}), so the effects were selected on windows of {window:.3g} s "
             f"started from the measured state and refitted by full simulation error (validation NRMSE "
             f"{refit.val_score:.3g}); the held-out part is scored by full replay")
+
+    def _refit_refined(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray]) -> FittedModel:
+        """``fm`` refitted on the adapter's refined replay (:func:`~vsa_gym.identify.convergence.refined`): from
+        its values, and with each of its effects refitted again from that effect's starts beside the others;
+        the one that fits the fit part best."""
+        fits = [self._refit(ad, fm, masks)]
+        fits += [self._with(ad, without_effect(fm, e), e, masks) for e in fm.effects]
+        return min(fits, key=lambda f: f.fit_score)
 
     def _select_on_windows(self, ad: Adapter, masks: dict[str, np.ndarray], floors: dict[str, float],
                            window: float) -> tuple[FittedModel, FittedModel, list[Candidate], list[Ambiguity]]:

@@ -156,6 +156,7 @@ class DriveAdapter(Adapter):
         other = DriveAdapter(record, replay=self.replay)
         other.effects, other.base = self.effects, self.base
         other.F_ref, other.v_ref, other.x_ref = self.F_ref, self.v_ref, self.x_ref
+        other.refine = self.refine
         if self.shooting:
             other.set_shooting(self.shooting * self.dt)
         return other
@@ -296,8 +297,11 @@ class DriveAdapter(Adapter):
 
     def substeps(self, P: np.ndarray) -> int:
         """RK4 substeps per sample that the fastest mode among rows ``P`` asks for
-        (:func:`vsa_gym.devices.drive.model.substeps`)."""
-        return drive.substeps(P, self.dt)
+        (:func:`vsa_gym.devices.drive.model.substeps`), times :attr:`refine` (at most ``MAX_SUBSTEPS``)."""
+        return min(drive.substeps(P, self.dt) * self.refine, drive.MAX_SUBSTEPS)
+
+    def can_refine(self) -> bool:
+        return True
 
     def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray, theta: Theta | None = None,
                  n_sub: int | None = None) -> np.ndarray:
