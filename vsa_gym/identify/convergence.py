@@ -25,6 +25,7 @@ from collections.abc import Callable
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter
+from vsa_gym.identify.fitting import part_nrmse
 from vsa_gym.identify.result import FittedModel
 
 #: the replay is refined while doubling its substeps moves it by more than this share of its misfit and of the
@@ -34,25 +35,38 @@ REFINE_TOL = 0.5
 REFINE_STEPS = 2
 
 
+def _replay(ad: Adapter, fm: FittedModel) -> np.ndarray:
+    """``fm``'s replay at the adapter's current substeps, ``(samples, outputs)``."""
+    return ad.simulate({k: np.array([v]) for k, v in fm.theta().items()}, 1)[:, 0, :]
+
+
+def _doubled(ad: Adapter, fm: FittedModel) -> np.ndarray:
+    """``fm``'s replay at twice the adapter's substeps; the adapter's refinement is left as it was."""
+    ad.refine *= 2
+    try:
+        return _replay(ad, fm)
+    finally:
+        ad.refine //= 2
+
+
+def _change(ad: Adapter, y: np.ndarray, y2: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
+    """``(change, misfit)`` of replay ``y`` against ``y2`` and against the record on ``mask``
+    (:func:`replay_change`)."""
+    scale = np.std(ad.measured[mask], axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    change = float(np.mean(np.sqrt(np.mean((y[mask] - y2[mask]) ** 2, axis=0)) / scale))
+    misfit = part_nrmse(ad.measured, y, mask)
+    if not (np.isfinite(change) and np.isfinite(misfit)):
+        return float("inf"), float("inf")
+    return change, misfit
+
+
 def replay_change(ad: Adapter, fm: FittedModel, mask: np.ndarray) -> tuple[float, float]:
     """How far ``fm``'s replay moves on ``mask`` when the adapter's substeps are doubled, and its misfit there
     before they are: ``(change, misfit)``, each the mean over the outputs of an RMS in units of the measured std
-    (the scale of the noise floor and of :attr:`FittedModel.val_score`).  The adapter's refinement is left as
-    it was."""
-    theta = {k: np.array([v]) for k, v in fm.theta().items()}
-    y = ad.simulate(theta, 1)[:, 0, :]
-    ad.refine *= 2
-    try:
-        y2 = ad.simulate(theta, 1)[:, 0, :]
-    finally:
-        ad.refine //= 2
-    scale = np.std(ad.measured[mask], axis=0)
-    scale = np.where(scale > 0, scale, 1.0)
-    change = np.sqrt(np.mean((y[mask] - y2[mask]) ** 2, axis=0)) / scale
-    misfit = np.sqrt(np.mean((y[mask] - ad.measured[mask]) ** 2, axis=0)) / scale
-    if not (np.all(np.isfinite(change)) and np.all(np.isfinite(misfit))):
-        return float("inf"), float("inf")
-    return float(np.mean(change)), float(np.mean(misfit))
+    (the scale of the noise floor and of :attr:`FittedModel.val_score`; the misfit is
+    :func:`~vsa_gym.identify.fitting.part_nrmse`).  The adapter's refinement is left as it was."""
+    return _change(ad, _replay(ad, fm), _doubled(ad, fm), mask)
 
 
 def refined(ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray], floor: float,
@@ -62,16 +76,20 @@ def refined(ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray], floor: f
     are doubled, at ``fm``'s values, until doubling them again moves the replay by at most :data:`REFINE_TOL`
     of its misfit or of ``floor`` (the noise floor as a validation NRMSE), whichever is larger, at most
     :data:`REFINE_STEPS` times; then ``fm`` is refitted once.  The adapter keeps the refinement, so the held-out
-    part is replayed the same way."""
+    part is replayed the same way.  Each doubling's replay is the next comparison's coarse one, so a step costs
+    one simulation."""
     if not fm.effects or not ad.can_refine():
         return fm, ""
     changes: list[str] = []
+    y = _replay(ad, fm)
     for _ in range(REFINE_STEPS):
-        change, misfit = replay_change(ad, fm, masks["validation"])
+        y2 = _doubled(ad, fm)
+        change, misfit = _change(ad, y, y2, masks["validation"])
         if change <= REFINE_TOL * max(floor, misfit):
             break
         changes.append(f"{change:.3g} at {ad.refine}x (misfit {misfit:.3g})")
         ad.refine *= 2
+        y = y2
     if not changes:
         return fm, ""
     fm = refit(fm)

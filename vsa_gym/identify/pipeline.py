@@ -17,7 +17,9 @@
    optimum they did not find alone).  Then look for a further effect (up to ``max_effects``).
 4. A full open-loop replay that runs away (and stays away with the effects found) is replaced
    by multiple shooting (windows started from the measured state); the selected model is then
-   refitted by full simulation error where that no longer runs away.
+   refitted by full simulation error where that no longer runs away (the tests and windows:
+   :mod:`vsa_gym.identify.shooting`).  The selected model's replay is then checked for integration error and
+   refitted at finer substeps where it is not converged (:mod:`vsa_gym.identify.convergence`).
 5. Score nominal and final model once on the held-out test part.
 
 Round one's two look-aheads (two effects that pass only together; the runner-up's branch):
@@ -64,14 +66,10 @@ from vsa_gym.identify.selection import (
     separating_experiment,
     shares_force,
 )
+from vsa_gym.identify.shooting import DRIFT_NRMSE, RUNAWAY_NRMSE, WindowSelection, runs_away, shooting_window
 from vsa_gym.identify.starts import main_start, shape_variants, split_start, switch_flips
 
 # ----------------------------------------------------------------------------- estimator
-#: a full replay whose nominal validation NRMSE exceeds this runs away (integrating plant, unmodelled load)
-RUNAWAY_NRMSE = 1.0
-#: a full open-loop replay whose selected model still leaves this validation NRMSE drifts: the selection is
-#: repeated on shooting windows (:meth:`Identifier._second_opinion`)
-DRIFT_NRMSE = 0.1
 #: a candidate refused only for a shape or start at a bound is accepted where it replays the record within
 #: ``floor_factor`` x the noise floor and BOUND_RELIEF times better than the model before and every passing
 #: candidate (:func:`vsa_gym.identify.rules.bound_relieved`)
@@ -79,35 +77,6 @@ BOUND_RELIEF = 3.0
 #: a look-alike replaces an earlier effect (:meth:`Identifier._swap`) only if round one fitted it alone and it
 #: validated within SWAP_REACH times that effect's round-one error there
 SWAP_REACH = 4.0
-
-
-def shooting_window(record: Record) -> float:
-    """Length (s) of the multiple-shooting windows of a record: a twentieth of it, 0.2 to 1 s."""
-    return float(np.clip((record.t[-1] - record.t[0]) / 20.0, 0.2, 1.0))
-
-
-def runs_away(nominal: FittedModel, fm: FittedModel) -> bool:
-    """Whether the full replay ran away: the nominal model and ``fm`` both validate above :data:`RUNAWAY_NRMSE`."""
-    return nominal.val_score > RUNAWAY_NRMSE and fm.val_score > RUNAWAY_NRMSE
-
-
-@dataclasses.dataclass(frozen=True)
-class WindowSelection:
-    """A selection on shooting windows of ``window`` s (:meth:`Identifier._on_windows`): the model ``selected``
-    there, its ``candidates`` and ``ambiguous`` look-alikes, and ``refit``, that model refitted by full simulation
-    error (None where the windows selected no effect)."""
-
-    window: float
-    selected: FittedModel
-    candidates: list[Candidate]
-    ambiguous: list[Ambiguity]
-    refit: FittedModel | None
-
-    def settles(self, current: FittedModel, margin: float, level: float) -> bool:
-        """Whether the refitted window model validates better than ``current`` by the ``margin`` and within
-        ``level`` (a validation NRMSE)."""
-        return (self.refit is not None and self.refit.val_score < (1 - margin) * current.val_score
-                and self.refit.val_score <= level)
 
 
 @dataclasses.dataclass
@@ -260,7 +229,8 @@ class Identifier(LookAheads):
         the one that fits the fit part best."""
         fits = [self._refit(ad, fm, masks)]
         fits += [self._with(ad, without_effect(fm, e), e, masks) for e in fm.effects]
-        return min(fits, key=lambda f: f.fit_score)
+        # a refit from an effect's own starts re-adds it last: the report keeps the selection's order
+        return dataclasses.replace(min(fits, key=lambda f: f.fit_score), effects=fm.effects)
 
     def _select_on_windows(self, ad: Adapter, masks: dict[str, np.ndarray], floors: dict[str, float],
                            window: float) -> tuple[FittedModel, FittedModel, list[Candidate], list[Ambiguity]]:
@@ -599,6 +569,7 @@ class Identifier(LookAheads):
                                               f"{s_red:.4g} without it vs {s_fm:.4g})"))
                 return reduced
         return fm
+
 
 def identify(data: str, *, max_effects: int = 2, replay: str | None = None, candidates: Sequence[str] | None = None,
              ) -> IdentificationResult:
