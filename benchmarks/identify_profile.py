@@ -6,7 +6,8 @@
 gearbox_efficiency,viscous_friction --rate 1000 --duration 20``, a case of the 30 s timing set).  Prints the wall
 time, the share spent inside the compiled drive kernel (``simulate_kernel``) with its number of calls, and the
 cumulative time of the selection's phases (each a method of :class:`vsa_gym.identify.pipeline.Identifier`, read
-from the profile by name; phases nest, so their times overlap).  One core: OpenBLAS is held to one thread as in
+from the profile by name; phases nest, so their times overlap), and the report's replay line (which says whether the
+replay's substeps were refined).  One core: OpenBLAS is held to one thread as in
 ``identify_truth``.
 """
 
@@ -25,9 +26,10 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):  # o
 from tests.truthsim.scenarios import draw_case, write_case  # noqa: E402
 from vsa_gym.identify.pipeline import identify  # noqa: E402
 
-#: the selection's phases reported (method names of ``Identifier``, and the kernel)
+#: the selection's phases reported (method names of ``Identifier``, the replay's convergence check
+#: :func:`vsa_gym.identify.convergence.refined` and the kernel)
 PHASES = ("_forward", "_with", "_reordered", "_together", "_swap", "_runner_up", "_on_windows", "_second_opinion",
-          "simulate_kernel")
+          "refined", "_refit_refined", "simulate_kernel")
 
 
 def case_parser(description: str) -> argparse.ArgumentParser:
@@ -61,6 +63,7 @@ def main(argv: list[str] | None = None) -> int:
     stats = pstats.Stats(prof).stats  # (file, line, name) -> (calls, primitive calls, tottime, cumtime, callers)
     print(f"case {args.seed} ({', '.join(effects) or 'control'}): named {[e['name'] for e in res.effects]}, "
           f"{wall:.1f} s")
+    print(f"  replay: {res.replay_mode}")
     for phase in PHASES:
         rows = [v for (_, _, name), v in stats.items() if name == phase]
         if rows:
