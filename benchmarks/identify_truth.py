@@ -153,6 +153,8 @@ def score(row: dict[str, Any], result: dict[str, Any] | None) -> dict[str, Any]:
     row["candidates"] = [{k: c.get(k) for k in ("round", "name", "val_score", "share", "accepted", "reason")}
                          for c in result.get("candidates", []) if c.get("fitted")]
     row["noise_floor_nrmse"] = result.get("noise_floor_nrmse")
+    # how the record was replayed (shooting, a refined substep count), to read where a slow case's time went
+    row["replay"] = result.get("replay", "")
     row["ambiguous"] = [list(a.get("between", [])) for a in result.get("ambiguous", []) or []]
     row["ambiguous_truth"] = any(planted & set(b) for b in row["ambiguous"])
     row["extra"] = sorted(set(row["named"]) - planted)
