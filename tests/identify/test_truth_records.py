@@ -199,6 +199,19 @@ def test_backlash_beside_friction_that_sticks_keeps_its_width(tmp_path):
                                   ("coulomb_friction", "backlash", "transmission_compliance"))
 
 
+def test_a_gap_fitted_short_on_a_replay_that_is_not_converged_is_restarted_at_finer_substeps(tmp_path):
+    """Case 157018 (a fresh pairs set; a 0.31 mrad backlash beside sticking Coulomb friction, open-loop gear motor
+    at 500 Hz): at the drive's own five substeps the fitted replay leans on its integration error and the gap came
+    out 22 % short.  Doubling the substeps moves the replay beyond the tolerance, so the model is refitted there;
+    the refit from its values gains nothing on the coarse fit, so each effect is also restarted from its own
+    starts (:func:`vsa_gym.identify.convergence.needs_restarts`), and the gap's restart wins: within 3 %."""
+    res = _pair_named_within_15_percent(tmp_path, 157018, ("backlash", "coulomb_friction"),
+                                        ("coulomb_friction", "backlash", "transmission_compliance"))
+    assert "refitted at 2x" in res.replay_mode, res.replay_mode
+    width = next(e for e in res.effects if e["name"] == "backlash")["parameters"]["width"]
+    assert width == pytest.approx(3.0791e-4, rel=0.03)
+
+
 def test_inertia_error_and_coulomb_friction_on_a_direct_drive_are_not_a_mesh_loss(tmp_path):
     """Case 13051 of the fresh seed-13 set (a linear motor, closed-loop multisine at 1 kHz, with the moving mass
     34 % heavier than its sidecar says and Coulomb friction): with the transmission's effects as candidates, a
