@@ -13,9 +13,10 @@ So the selected model is replayed once more at twice the substeps: where its rep
 that large is what a fit can take for a parameter's effect; one far below the misfit, as on EMPS with its
 unmodelled detail, is not), the adapter keeps the doubled substeps (doubled
 again while that holds, at most :data:`REFINE_STEPS` times) and the model is refitted there, its effects as
-selected (:meth:`vsa_gym.identify.pipeline.Identifier._refit_refined`: from its values; and, where that
-refit gains too little on the coarse fit (:func:`needs_restarts`), each effect again from its own starts,
-since the coarse fit may then sit in a basin that the integration error made).
+selected (:meth:`vsa_gym.identify.pipeline.Identifier._refit_refined`: from its values, and from them with
+each held-off switch turned on (:func:`switched_on`); and, where the best of those gains too little on the
+coarse fit (:func:`needs_restarts`), each effect again from its own starts, since the coarse fit may then sit
+in a basin that the integration error made).
 The report states the substeps used and the change that set them.
 """
 
@@ -26,7 +27,7 @@ from collections.abc import Callable
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter
-from vsa_gym.identify.fitting import part_nrmse
+from vsa_gym.identify.fitting import part_nrmse, with_switch_on
 from vsa_gym.identify.result import FittedModel
 
 #: the replay is refined while doubling its substeps moves it by more than this share of its misfit and of the
@@ -102,6 +103,20 @@ def refined(ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray], floor: f
                 f"refitted at {ad.refine}x, and the held-out part is replayed so")
 
 
+def switched_on(ad: Adapter, fm: FittedModel) -> list[FittedModel]:
+    """``fm`` with one of its held-off switches turned on (a friction that creeps made to stick), for each such
+    switch of its effects: the exact law that a coarse replay may have kept out (truth case 139006, Stribeck
+    beside Coulomb friction at 1 kHz: chosen creeping at the drive's own substeps; at twice them the Stribeck
+    friction sticking fits the fit part 23x better than the creeping law refitted there)."""
+    out = []
+    for name in fm.effects:
+        spec = ad.effects.get(name)
+        for p in spec.params if spec is not None else ():
+            if p.switch and f"{name}.{p.name}" not in fm.keys:
+                out.append(with_switch_on(fm, spec, p))
+    return out
+
+
 def needs_restarts(coarse: FittedModel, refit: FittedModel) -> bool:
     """Whether ``refit`` (``coarse`` refitted from its values at the refined substeps) gains too little on the
     fit part for its basin to be kept without a search: its fit NRMSE not below :data:`RESTART_GAIN` of
@@ -118,4 +133,4 @@ def needs_restarts(coarse: FittedModel, refit: FittedModel) -> bool:
     return not refit.fit_score < RESTART_GAIN * coarse.fit_score
 
 
-__all__ = ["REFINE_STEPS", "REFINE_TOL", "RESTART_GAIN", "needs_restarts", "refined", "replay_change"]
+__all__ = ["REFINE_STEPS", "REFINE_TOL", "RESTART_GAIN", "needs_restarts", "refined", "replay_change", "switched_on"]
