@@ -11,14 +11,7 @@ import pytest
 from tests.truthsim.scenarios import draw_case, write_case
 from vsa_gym.identify import convergence
 from vsa_gym.identify.adapters import Adapter, make_adapter
-from vsa_gym.identify.convergence import (
-    REFINE_STEPS,
-    REFINE_TOL,
-    RESTART_GAIN,
-    needs_restarts,
-    refined,
-    replay_change,
-)
+from vsa_gym.identify.convergence import REFINE_STEPS, REFINE_TOL, refined, replay_change
 from vsa_gym.identify.record import load_record
 from vsa_gym.identify.result import FittedModel
 
@@ -122,22 +115,3 @@ def test_each_doubling_is_judged_on_a_replay_at_its_own_substeps(backlash_case, 
     fresh.measured, fresh.refine = ad.measured, 2
     change_2, misfit_2 = replay_change(fresh, fm, masks["validation"])
     assert f", then {change_2:.3g} at 2x (misfit {misfit_2:.3g})" in note
-
-
-def test_restarts_are_asked_for_only_where_the_refit_from_the_values_gains_too_little():
-    """The refined refit keeps its basin where it fits clearly better than the coarse fit, and searches the
-    effects' own starts where it does not, or where a score is not finite (nothing to judge a gain by)."""
-    def model(fit: float) -> FittedModel:
-        v = np.array([1.0])
-        return FittedModel(effects=("backlash",), keys=["backlash.width"], specs=[], values=v, ci=np.c_[v, v],
-                           sse_fit=1.0, n_fit=1, val_score=1.0, at_bound=[], fit_score=fit)
-
-    coarse = model(1e-3)
-    assert not needs_restarts(coarse, model(0.99 * RESTART_GAIN * 1e-3))
-    assert not needs_restarts(coarse, model(0.0))  # a refit that replays the record exactly
-    assert needs_restarts(coarse, model(RESTART_GAIN * 1e-3))
-    assert needs_restarts(coarse, model(1.2e-3))  # a refit that fits worse
-    for fit in (float("nan"), float("inf")):
-        assert needs_restarts(coarse, model(fit))
-        assert needs_restarts(model(fit), model(1e-4))
-    assert needs_restarts(model(0.0), model(0.0))

@@ -13,10 +13,8 @@ So the selected model is replayed once more at twice the substeps: where its rep
 that large is what a fit can take for a parameter's effect; one far below the misfit, as on EMPS with its
 unmodelled detail, is not), the adapter keeps the doubled substeps (doubled
 again while that holds, at most :data:`REFINE_STEPS` times) and the model is refitted there, its effects as
-selected (:meth:`vsa_gym.identify.pipeline.Identifier._refit_refined`: from its values, and from them with
-each held-off switch turned on (:func:`switched_on`); and, where the best of those gains too little on the
-coarse fit (:func:`needs_restarts`), each effect again from its own starts, since the coarse fit may then sit
-in a basin that the integration error made).
+selected (:meth:`vsa_gym.identify.pipeline.Identifier._refit_refined`: from its values, and each effect again
+from its own starts, since the fit at the coarser substeps may sit in another basin).
 The report states the substeps used and the change that set them.
 """
 
@@ -27,7 +25,7 @@ from collections.abc import Callable
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter
-from vsa_gym.identify.fitting import part_nrmse, with_switch_on
+from vsa_gym.identify.fitting import part_nrmse
 from vsa_gym.identify.result import FittedModel
 
 #: the replay is refined while doubling its substeps moves it by more than this share of its misfit and of the
@@ -35,9 +33,6 @@ from vsa_gym.identify.result import FittedModel
 REFINE_TOL = 0.5
 #: at most this many doublings (the substeps times 2 ** REFINE_STEPS)
 REFINE_STEPS = 2
-#: the refit from the selected model's values at the refined substeps is kept without restarts where it fits
-#: the fit part below this share of the coarse fit's misfit (:func:`needs_restarts`)
-RESTART_GAIN = 0.8
 
 
 def _replay(ad: Adapter, fm: FittedModel) -> np.ndarray:
@@ -103,34 +98,4 @@ def refined(ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray], floor: f
                 f"refitted at {ad.refine}x, and the held-out part is replayed so")
 
 
-def switched_on(ad: Adapter, fm: FittedModel) -> list[FittedModel]:
-    """``fm`` with one of its held-off switches turned on (a friction that creeps made to stick), for each such
-    switch of its effects: the exact law that a coarse replay may have kept out (truth case 139006, Stribeck
-    beside Coulomb friction at 1 kHz: chosen creeping at the drive's own substeps; at twice them the Stribeck
-    friction sticking fits the fit part 23x better than the creeping law refitted there)."""
-    out = []
-    for name in fm.effects:
-        spec = ad.effects.get(name)
-        for p in spec.params if spec is not None else ():
-            if p.switch and f"{name}.{p.name}" not in fm.keys:
-                out.append(with_switch_on(fm, spec, p))
-    return out
-
-
-def needs_restarts(coarse: FittedModel, refit: FittedModel) -> bool:
-    """Whether ``refit`` (``coarse`` refitted from its values at the refined substeps) gains too little on the
-    fit part for its basin to be kept without a search: its fit NRMSE not below :data:`RESTART_GAIN` of
-    ``coarse``'s (a score that is not finite, or a coarse fit of zero, counts as no gain).
-
-    Where the finer replay lets the same basin fit clearly better, the coarse fit's basin was the model's own
-    and the integration error only blurred it (timing case 11054, Stribeck beside Coulomb friction: 2.39e-3 to
-    3.73e-4; each friction restarted from its own starts fitted 5.9e-3 and 5.1e-2, in 9.9 of the record's
-    38 s).  Where it gains nothing, the coarse fit leaned on the integration error and a basin elsewhere may fit
-    (157018, a 0.31 mrad backlash beside sticking Coulomb friction: 5.70e-4 to 5.61e-4; the gap restarted from
-    its own starts fits 8.65e-5, width 0.9 % off instead of 22 % short)."""
-    if not (np.isfinite(coarse.fit_score) and coarse.fit_score > 0 and np.isfinite(refit.fit_score)):
-        return True
-    return not refit.fit_score < RESTART_GAIN * coarse.fit_score
-
-
-__all__ = ["REFINE_STEPS", "REFINE_TOL", "RESTART_GAIN", "needs_restarts", "refined", "replay_change", "switched_on"]
+__all__ = ["REFINE_STEPS", "REFINE_TOL", "refined", "replay_change"]

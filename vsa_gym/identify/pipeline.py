@@ -34,7 +34,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from vsa_gym.identify.adapters import Adapter, make_adapter
-from vsa_gym.identify.convergence import needs_restarts, refined, switched_on
+from vsa_gym.identify.convergence import refined
 from vsa_gym.identify.effects import EffectSpec
 from vsa_gym.identify.fitting import (
     compared,
@@ -225,17 +225,12 @@ class Identifier(LookAheads):
 
     def _refit_refined(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray]) -> FittedModel:
         """``fm`` refitted on the adapter's refined replay (:func:`~vsa_gym.identify.convergence.refined`): from
-        its values and from them with each held-off switch turned on (:func:`~vsa_gym.identify.convergence.
-        switched_on`); where the best of those gains too little on ``fm``'s coarse fit
-        (:func:`~vsa_gym.identify.convergence.needs_restarts`), also with each of its effects refitted again
-        from that effect's starts beside the others; the one that fits the fit part best."""
-        fits = [self._refit(ad, m, masks) for m in (fm, *switched_on(ad, fm))]
-        best = min(fits, key=lambda f: f.fit_score)
-        if needs_restarts(fm, best):
-            fits += [self._with(ad, without_effect(fm, e), e, masks) for e in fm.effects]
-            best = min(fits, key=lambda f: f.fit_score)
+        its values, and with each of its effects refitted again from that effect's starts beside the others;
+        the one that fits the fit part best."""
+        fits = [self._refit(ad, fm, masks)]
+        fits += [self._with(ad, without_effect(fm, e), e, masks) for e in fm.effects]
         # a refit from an effect's own starts re-adds it last: the report keeps the selection's order
-        return dataclasses.replace(best, effects=fm.effects)
+        return dataclasses.replace(min(fits, key=lambda f: f.fit_score), effects=fm.effects)
 
     def _select_on_windows(self, ad: Adapter, masks: dict[str, np.ndarray], floors: dict[str, float],
                            window: float) -> tuple[FittedModel, FittedModel, list[Candidate], list[Ambiguity]]:
