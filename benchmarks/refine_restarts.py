@@ -29,9 +29,13 @@ from typing import Any
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):  # one core a worker, before numpy loads
     os.environ.setdefault(_var, "1")
 
+import numpy as np  # noqa: E402
+
 from tests.truthsim.scenarios import draw_case, write_case  # noqa: E402
+from vsa_gym.identify.adapters import Adapter  # noqa: E402
 from vsa_gym.identify.pipeline import Identifier  # noqa: E402
 from vsa_gym.identify.record import load_record  # noqa: E402
+from vsa_gym.identify.result import FittedModel  # noqa: E402
 
 #: a restart "wins" where its fit-part NRMSE is below this share of the values refit's
 WIN = 0.8
@@ -57,7 +61,7 @@ class _Observed(Identifier):
         self.log[-1]["fits"].append({"from": label, "fit": out.fit_score, "s": time.perf_counter() - t0})
         return out
 
-    def _refit_refined(self, ad, fm, masks):  # type: ignore[no-untyped-def]
+    def _refit_refined(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray]) -> FittedModel:
         self.log.append({"coarse": fm.fit_score, "fits": []})
         self._depth += 1
         try:
@@ -65,10 +69,10 @@ class _Observed(Identifier):
         finally:
             self._depth -= 1
 
-    def _refit(self, ad, fm, masks):  # type: ignore[no-untyped-def]
+    def _refit(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray]) -> FittedModel:
         return self._observe("values", super()._refit, ad, fm, masks)
 
-    def _with(self, ad, current, name, masks):  # type: ignore[no-untyped-def]
+    def _with(self, ad: Adapter, current: FittedModel, name: str, masks: dict[str, np.ndarray]) -> FittedModel:
         return self._observe(name, super()._with, ad, current, name, masks)
 
 
