@@ -467,6 +467,18 @@ def test_a_stand_in_gap_at_its_bound_is_still_refused_where_it_is_not_far_better
     assert refused and not refused[0]["accepted"] and refused[0]["reason"] == "parameter at a bound"
 
 
+def test_beside_an_accepted_effect_a_gap_at_its_start_bound_is_named_far_ahead_of_the_rest(tmp_path):
+    """Case 197010 of the seed-197 pairs set (a gear motor in open loop, steps at 500 Hz, motor encoder; an 11 mrad
+    backlash beside Coulomb friction): beside the Coulomb friction the gap's fit replays the record 7.6x better
+    than the friction alone, its width 2.5 % off, but its start sits at the bound (the motor against a tooth at the
+    first sample) and the fit is 59x the noise floor, beyond the 3x the bound relief asked for, so nothing but the
+    friction was named.  Beside an accepted effect the relief no longer asks for the floor; it still asks for a fit
+    3x better than the model before and every passing candidate (47016 above: a stand-in in round one)."""
+    res = _pair_named_within_15_percent(tmp_path, 197010, ("backlash", "coulomb_friction"), None)
+    relieved = [c for c in res.candidates if c.name == "backlash" and c.accepted]
+    assert relieved and "backlash.start at a bound: beside coulomb_friction" in relieved[0].reason
+
+
 def test_a_gap_ranked_too_low_to_fit_is_fitted_where_nothing_else_passed(tmp_path):
     """Case 103015 of the seed-103 set (a gear motor in closed loop, sines at 1 kHz, motor encoder; a 1.5 mrad
     backlash): the gap's secant signature ranked it below the six candidates round one fits, none of which passed,
