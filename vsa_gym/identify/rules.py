@@ -93,9 +93,11 @@ def bound_relieved(cand: Candidate, spec: EffectSpec, fm: FittedModel, current: 
     at the bound is a motor resting against a tooth at the first sample, as a geared drive is left after its last
     move, and a fit ``relief`` times better than the model with Coulomb friction alone is the gap's own evidence
     (truth case 197010: an 11 mrad gear backlash beside Coulomb friction, open loop at 500 Hz, the gap's fit 7.6x
-    better than Coulomb friction alone and 59x the noise floor, width 2.5 % off, was refused; no single-effect
-    case or control of nineteen stored sets had a candidate this reaches, ``python -m
-    benchmarks.truth_refusals``).  ``rules``: :func:`judge`'s thresholds."""
+    better than Coulomb friction alone and 59x the noise floor, width 2.5 % off, was refused).  In the runs of
+    seventeen truth sets made before the change, ``python -m benchmarks.truth_refusals DIRS --rule "parameter at
+    a bound" --within 1e9 --beside --relief 3`` finds it reaching that case and 191010 only, both pairs of backlash
+    and Coulomb friction; re-run, nineteen sets changed in those two cases alone (docs/identification.md,
+    twenty-sixth session).  ``rules``: :func:`judge`'s thresholds."""
     keys = shape_at_bound(spec, fm)
     near_floor = fm.val_score <= floor_factor * floors["validation"]
     if cand.accepted or not keys or not (near_floor or current.effects):
