@@ -16,12 +16,11 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import tempfile
-from pathlib import Path
 
 import numpy as np
 
+from tests.truthsim.records import read_truth
 from tests.truthsim.scenarios import draw_case, write_case
 from vsa_gym.devices.drive.adapter import DriveAdapter
 from vsa_gym.identify.record import load_record
@@ -31,7 +30,7 @@ def contact_grid(seed: int, freqs: list[float], zetas: list[float]) -> dict[str,
     """RMS fit-part errors of the nominal model and of the true width under each contact ``(zeta, f)``."""
     with tempfile.TemporaryDirectory(prefix="backlash_") as tmp:
         csv = write_case(draw_case(seed, ("backlash",)), tmp)
-        width = json.loads((Path(tmp) / f"{csv.stem}.truth.json").read_text())["main"]["backlash"]
+        width = read_truth(csv)["main"]["backlash"]
         record = load_record(csv)
     ad = DriveAdapter(record)
     mask = record.masks()["fit"]

@@ -52,6 +52,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):  # o
 import numpy as np  # noqa: E402
 
 from benchmarks.rule_reach import SPEC_RULES  # noqa: E402
+from tests.truthsim.records import read_truth  # noqa: E402
 from tests.truthsim.scenarios import EFFECTS, MAIN, draw_case, write_case  # noqa: E402
 
 REL_TOL = 0.15
@@ -116,7 +117,7 @@ def run_one(spec: dict[str, Any], use_subprocess: bool = False) -> dict[str, Any
                            "rel_error": {}, "error": None}
     with tempfile.TemporaryDirectory(prefix="truthsim_") as tmp:
         csv = write_case(case, tmp)
-        truth = json.loads((Path(tmp) / f"{csv.stem}.truth.json").read_text())
+        truth = read_truth(csv)
         row["truth"] = truth["main"]
         row["truth_all"] = truth["planted"]
         out = Path(tmp) / "identification.json"

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from tests.truthsim.plant import V_L
-from tests.truthsim.records import run
+from tests.truthsim.records import read_truth, run
 from tests.truthsim.scenarios import MAIN, draw_case, write_case
 from vsa_gym.cli import main
 from vsa_gym.identify.adapters import make_adapter
@@ -32,21 +32,21 @@ def _identify(tmp_path, seed: int, effects: tuple[str, ...]) -> tuple[dict, dict
     csv = write_case(draw_case(seed, effects), tmp_path)
     out = tmp_path / "out.json"
     assert main(["identify", str(csv), "--json", str(out)]) == 0
-    truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
+    truth = read_truth(csv)
     return json.loads(out.read_text()), truth
 
 
 def _truth_main(folder) -> dict[str, float]:
     """The main parameters of the one case written into ``folder`` (its truth sidecar)."""
-    (path,) = folder.glob("*.truth.json")
-    return json.loads(path.read_text())["main"]
+    (csv,) = folder.glob("*.csv")
+    return read_truth(csv)["main"]
 
 
 def _pair_named_within_15_percent(tmp_path, seed: int, effects: tuple[str, str], candidates: tuple[str, ...] | None):
     """Identify case ``seed`` (``effects`` planted) among ``candidates`` (None: the whole library): exactly the
     planted pair is named, each main parameter within 15 %; returns the result."""
     csv = write_case(draw_case(seed, effects), tmp_path)
-    truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
+    truth = read_truth(csv)
     res = identify(str(csv), candidates=candidates)
     named = {e["name"]: e["parameters"] for e in res.effects}
     assert set(named) == set(effects), res.statements()
@@ -316,7 +316,7 @@ def test_mesh_loss_of_a_voltage_drive_is_fitted_with_the_damping_in_front_of_the
                                         ("gearbox_efficiency", "viscous_friction", "coulomb_friction"))
     theta = res.final.theta()
     assert theta["base.emf_share"] > 0.9
-    truth = json.loads(next(tmp_path.glob("*.truth.json")).read_text())
+    truth = read_truth(next(tmp_path.glob("*.csv")))
     assert theta["gearbox_efficiency.loss_back"] == pytest.approx(1 - truth["planted"]["gearbox_efficiency"]["eta_b"],
                                                                   rel=0.15)
     ad = make_adapter(load_record(next(tmp_path.glob("*.csv"))))
@@ -498,7 +498,7 @@ def test_a_refused_newcomer_that_moved_the_accepted_effect_to_a_better_optimum_l
     there without the Coulomb friction it validates as well, so it keeps those values (within 15 %).  Among two
     candidates, to keep the test short (the whole library names the same, 63 s)."""
     csv = write_case(draw_case(127006, ("stribeck_friction",)), tmp_path)
-    truth = json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
+    truth = read_truth(csv)
     res = identify(str(csv), candidates=("stribeck_friction", "coulomb_friction"))
     assert [e["name"] for e in res.effects] == ["stribeck_friction"], res.statements()
     assert res.effects[0]["parameters"]["F_s"] == pytest.approx(truth["main"]["stribeck_friction"], rel=0.15)

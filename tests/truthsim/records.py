@@ -160,6 +160,12 @@ def write_record(directory: Path, case: Case, table: pd.DataFrame, meta: dict[st
     return path
 
 
+def read_truth(csv: Path) -> dict[str, Any]:
+    """The ``<stem>.truth.json`` written beside the record ``csv`` by :func:`write_record` (``main``: each planted
+    effect's main parameter; ``planted``: all of their parameters)."""
+    return json.loads(csv.with_name(csv.stem + ".truth.json").read_text())
+
+
 def _jsonable(o: Any) -> Any:
     if isinstance(o, np.generic):
         return o.item()
@@ -168,4 +174,4 @@ def _jsonable(o: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(o)}")
 
 
-__all__ = ["run", "run_case", "sidecar", "stem", "truth", "write_record"]
+__all__ = ["read_truth", "run", "run_case", "sidecar", "stem", "truth", "write_record"]

@@ -29,6 +29,7 @@ Round one's two look-aheads (two effects that pass only together; the runner-up'
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -112,8 +113,13 @@ class Identifier(LookAheads):
     ambiguity: float = 0.01
     shooting: str | float = "auto"
     result_: IdentificationResult | None = None
+    #: the alternatives of the refinement's refit (:meth:`_refit_refined`), in the order fitted: ``from``
+    #: ("values" or the restarted effect), its fit-part NRMSE ``fit``, the coarse fit's ``coarse`` and ``seconds``
+    #: (empty where the replay was not refined; ``python -m benchmarks.refine_restarts`` reads it)
+    refine_fits_: list[dict[str, float | str]] = dataclasses.field(default_factory=list)
 
     def fit(self, record: Record, test_record: Record | None = None) -> Identifier:
+        self.refine_fits_ = []
         kw = {"replay": self.replay} if self.replay else {}
         ad = make_adapter(record, **kw)
         masks = record.masks()
@@ -227,8 +233,13 @@ class Identifier(LookAheads):
         """``fm`` refitted on the adapter's refined replay (:func:`~vsa_gym.identify.convergence.refined`): from
         its values, and with each of its effects refitted again from that effect's starts beside the others;
         the one that fits the fit part best."""
-        fits = [self._refit(ad, fm, masks)]
-        fits += [self._with(ad, without_effect(fm, e), e, masks) for e in fm.effects]
+        fits = []
+        for start in ("values", *fm.effects):
+            t0 = time.perf_counter()
+            fits.append(self._refit(ad, fm, masks) if start == "values"
+                        else self._with(ad, without_effect(fm, start), start, masks))
+            self.refine_fits_.append({"from": start, "fit": fits[-1].fit_score, "coarse": fm.fit_score,
+                                      "seconds": time.perf_counter() - t0})
         # a refit from an effect's own starts re-adds it last: the report keeps the selection's order
         return dataclasses.replace(min(fits, key=lambda f: f.fit_score), effects=fm.effects)
 
