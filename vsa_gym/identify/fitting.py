@@ -35,6 +35,7 @@ class SimulationErrorProblem:
         self.offs = np.array([s.absent for s in specs])
         self.sd = np.array([float(np.std(ad.measured[mask, j])) or 1.0 for j in range(ad.measured.shape[1])])
         self.until = part_end(mask)
+        self._target = ad.measured[mask][:, None, :]  # the measured fit part, as batch() subtracts it
         self._cache: tuple[bytes, tuple[np.ndarray, np.ndarray]] | None = None
         self._residual: tuple[bytes, np.ndarray] | None = None
 
@@ -58,7 +59,7 @@ class SimulationErrorProblem:
         for i, k in enumerate(self.keys):
             theta[k] = P[:, i]
         y = self.ad.simulate(theta, n, until=self.until, rows=rows)
-        r = (y[self.mask] - self.ad.measured[self.mask][:, None, :]) / self.sd
+        r = (y[self.mask] - self._target) / self.sd
         # a diverged row (NaN) or one that runs away to huge finite values is scored as equally bad: 1e6 standard
         # deviations per sample, so that the least squares' sums and its Jacobian stay finite
         r = np.clip(np.nan_to_num(r, nan=1e6), -1e6, 1e6)

@@ -234,7 +234,9 @@ class DriveAdapter(Adapter):
         return str(units.get("position", lin)), str(units.get("force", rot))
 
     def param_matrix(self, theta: Theta, n: int) -> np.ndarray:
-        P = self.params.vector(n)
+        if getattr(self, "_row_of", None) is not self.params:  # the nominal row, built once per parameter set
+            self._row, self._row_of = self.params.vector(1), self.params
+        P = np.repeat(self._row, n, axis=0)
         I = drive.PIDX
         for b in self.base:
             if b.name in I:
@@ -304,14 +306,16 @@ class DriveAdapter(Adapter):
         return True
 
     def _rollout(self, P: np.ndarray, a: int, b: int, x0: np.ndarray, theta: Theta | None = None,
-                 n_sub: int | None = None) -> np.ndarray:
+                 n_sub: int | None = None, starts: np.ndarray | None = None) -> np.ndarray:
         """Physical observables ``(b - a, n, n_outputs)`` of rows ``P`` over rows ``a:b`` from states ``x0``
         (``theta``: the candidate's sensor terms, which a closed loop reads; ``n_sub``: the substeps, by
-        default those of ``P``'s fastest mode)."""
+        default those of ``P``'s fastest mode; ``starts``: shooting windows from ``a``, with ``x0`` the start states
+        of each, :func:`vsa_gym.devices.drive.model.simulate`)."""
         y = drive.simulate(P, self.u[a:b], self.dt, x0=x0, fext=self.fext[a:b], ref=self.ref[a:b], ff=self.ff[a:b],
                            controller=self.ctrl, n_sub=self.substeps(P) if n_sub is None else n_sub,
                            sensor_at_motor=self.loop_at_motor, sensor_bias=self.loop_bias,
-                           sensor=self._loop_sensor(theta, P.shape[0]), diverged="nan")  # the fit skips such rows
+                           sensor=self._loop_sensor(theta, P.shape[0]), diverged="nan",  # the fit skips such rows
+                           starts=starts)
         return y[:, :, self.obs]
 
     def _start_states(self, P: np.ndarray, a: int, position: np.ndarray | None = None,
@@ -441,12 +445,14 @@ class DriveAdapter(Adapter):
             return self.segments
         return [(w, min(w + self.shooting, b)) for a, b in self.segments for w in range(a, b, self.shooting)]
 
-    def _shoot_states(self, theta: Theta, P: np.ndarray, a: int) -> np.ndarray:
+    def _shoot_states(self, theta: Theta, P: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        """Start states ``(windows, n, N_STATE)`` of rows ``P`` at the shooting windows' first samples ``starts``."""
         n = P.shape[0]
         gain, offset, delay = (theta_column(theta, k, n) for k in SENSOR_KEYS)
-        ta = self.t[a] + delay
-        raw = np.interp(ta, self.t, self._x_meas) - self.measurement[0].bias - offset
-        return self._start_states(P, a, raw / (1.0 + gain), np.interp(ta, self.t, self._v_meas) / (1.0 + gain))
+        ta = self.t[starts][:, None] + delay
+        pos = (np.interp(ta, self.t, self._x_meas) - self.measurement[0].bias - offset) / (1.0 + gain)
+        speed = np.interp(ta, self.t, self._v_meas) / (1.0 + gain)
+        return np.stack([self._start_states(P, a, pos[w], speed[w]) for w, a in enumerate(starts)])
 
     def simulate(self, theta: Theta, n: int, *, until: int | None = None,
                  rows: np.ndarray | None = None) -> np.ndarray:
@@ -463,11 +469,12 @@ class DriveAdapter(Adapter):
         end = len(self.t) if until is None else min(int(until), len(self.t))
         out = np.full((len(self.t), n, len(self.outputs)), np.nan)
         if self.shooting:
-            for a, b in self._windows():
-                if a < end:
-                    b = min(b, end)
-                    out[a:b] = self._measure(theta, self._rollout(P, a, b, self._shoot_states(theta, P, a),
-                                                                  n_sub=n_sub), a, b)
+            # the windows tile the samples (the segments do): one compiled roll-out restarts each row at each
+            windows = [(a, min(b, end)) for a, b in self._windows() if a < end]
+            starts = np.array([a for a, _ in windows])
+            y = self._rollout(P, 0, end, self._shoot_states(theta, P, starts), n_sub=n_sub, starts=starts)
+            for a, b in windows:
+                out[a:b] = self._measure(theta, y[a:b], a, b)
             return out
         for a, b in self.segments:
             if a >= end:

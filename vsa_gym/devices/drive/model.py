@@ -314,12 +314,11 @@ def _dahl_step(P: np.ndarray, u: float, fext: float, two_mass: bool, y: tuple[fl
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _one_step(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, s: np.ndarray, h: float) -> None:
-    """One substep of ``h`` applied to ``s`` in place: exponential RK4 for a row with a Dahl force, classical RK4
-    otherwise."""
-    y = load_row(s)
-    y = _dahl_step(P, u, fext, two_mass, y, h) if dahl else rk4_call((P, u, fext, two_mass), y, h, 1)
-    store_row(s, y)
+def _one_step(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, y: tuple[float, ...], h: float
+              ) -> tuple[float, ...]:
+    """One substep of ``h`` of the row held as the tuple ``y``: exponential RK4 for a row with a Dahl force,
+    classical RK4 otherwise."""
+    return _dahl_step(P, u, fext, two_mass, y, h) if dahl else rk4_call((P, u, fext, two_mass), y, h, 1)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -334,7 +333,7 @@ def _dahl_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, s: np.n
 
 @numba.njit(cache=True, error_model="numpy")
 def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, dahl: bool, s: np.ndarray, h: float,
-                         n_sub: int, s0: np.ndarray) -> None:
+                         n_sub: int) -> None:
     """``n_sub`` substeps of a row whose friction sticks, with its mode changes located as events.
 
     The mode ``s[6]`` is +-1 (sliding that way: friction ``sign * g(v)``) or 0 (stuck: the load at rest).  A
@@ -342,52 +341,50 @@ def _stick_slip_substeps(P: np.ndarray, u: float, fext: float, two_mass: bool, d
     sticks if the held force (:func:`_held_force`) is within the break-away level ``F_c + F_s``, else it slides
     on the held force's way.  A stuck substep whose held force leaves that level is cut where it does (linear
     in time) and the load breaks away.  Between events the friction law is smooth, so the steps keep their
-    order; no regularising speed or bristle spring sets the substeps."""
+    order; no regularising speed or bristle spring sets the substeps.  The row is held as a tuple between its
+    events (as the plain rows are), which is what keeps this loop near their cost."""
     g0 = P[4] + P[5]
+    y = load_row(s)
     for _ in range(n_sub):
         left = h
         events = 0
         while left > 1e-9 * h:
-            if s[6] == 0.0 and s[1] != 0.0:
-                s[6] = 1.0 if s[1] > 0.0 else -1.0  # a start in motion slides
-            s0[:] = s
-            _one_step(P, u, fext, two_mass, dahl, s, left)
+            if y[6] == 0.0 and y[1] != 0.0:
+                y = (y[0], y[1], y[2], y[3], y[4], y[5], 1.0 if y[1] > 0.0 else -1.0)  # a start in motion slides
+            y0 = y
+            y = _one_step(P, u, fext, two_mass, dahl, y0, left)
             if events == 3:
                 # a fourth mode change in one substep would be the load chattering: the step stands (the substep
                 # is always completed), and a load it leaves moving against its mode is stopped there
-                if s[6] != 0.0 and s[6] * s[1] < 0.0:
-                    s[1] = 0.0
-                    if not two_mass:
-                        s[3] = 0.0
-                    s[6] = 0.0
+                if y[6] != 0.0 and y[6] * y[1] < 0.0:
+                    y = (y[0], 0.0, y[2], y[3] if two_mass else 0.0, y[4], y[5], 0.0)
                 break
-            mode = s[6]
+            mode = y[6]
             a1 = 0.0
             if mode != 0.0:  # sliding: did the load speed cross zero?
-                v0, v1 = mode * s0[1], mode * s[1]
+                v0, v1 = mode * y0[1], mode * y[1]
                 if v1 >= 0.0:
                     break
                 tau = left * v0 / (v0 - v1) if v0 > 0.0 else 0.0
             else:  # stuck: did the held force leave the break-away level?
-                a1 = _held_force(P, s, u, fext, two_mass)
+                a1 = _held_force(P, y, u, fext, two_mass)
                 if abs(a1) <= g0:
                     break
-                a0 = _held_force(P, s0, u, fext, two_mass)
+                a0 = _held_force(P, y0, u, fext, two_mass)
                 level = g0 if a1 > 0.0 else -g0
                 tau = min(max(left * (level - a0) / (a1 - a0), 0.0), left) if a1 != a0 else 0.0
-            s[:] = s0  # the substep cut at the event
+            y = y0  # the substep cut at the event
             if tau > 0.0:
-                _one_step(P, u, fext, two_mass, dahl, s, tau)
+                y = _one_step(P, u, fext, two_mass, dahl, y, tau)
             if mode != 0.0:  # the load stops: it sticks, or slides on the held force's way
-                s[1] = 0.0
-                if not two_mass:
-                    s[3] = 0.0
-                held = _held_force(P, s, u, fext, two_mass)
-                s[6] = 0.0 if abs(held) <= g0 else (1.0 if held > 0.0 else -1.0)
+                y = (y[0], 0.0, y[2], y[3] if two_mass else 0.0, y[4], y[5], y[6])
+                held = _held_force(P, y, u, fext, two_mass)
+                y = (y[0], y[1], y[2], y[3], y[4], y[5], 0.0 if abs(held) <= g0 else (1.0 if held > 0.0 else -1.0))
             else:  # it breaks away
-                s[6] = 1.0 if a1 > 0.0 else -1.0
+                y = (y[0], y[1], y[2], y[3], y[4], y[5], 1.0 if a1 > 0.0 else -1.0)
             events += 1
             left -= tau
+    store_row(s, y)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -420,20 +417,24 @@ def _sensed(xs: np.ndarray, k: int, dt: float, gain: float, offset: float, delay
 
 @numba.njit(cache=True, error_model="numpy")
 def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarray, ref: np.ndarray,
-                    ff: np.ndarray, ctrl: np.ndarray, sens: np.ndarray, dt: float, n_sub: int) -> np.ndarray:
+                    ff: np.ndarray, ctrl: np.ndarray, sens: np.ndarray, dt: float, n_sub: int,
+                    starts: np.ndarray) -> np.ndarray:
     """Roll out ``n`` drives over ``T`` samples; returns observables ``(T, n, len(OBS))`` at the sample times.
 
+    ``starts`` ``(W + 1,)`` cuts the samples into ``W`` windows ``starts[w] .. starts[w + 1]`` (``starts[0] = 0``,
+    ``starts[W] = T``); row ``i`` starts window ``w`` from the state ``x0[w, i]`` (multiple shooting; one window
+    ``[0, T]`` is a plain roll-out).
     ``ctrl = [mode, kp, kv, sat, at_motor, bias]``: mode 0 replays ``u`` open loop; mode 1 is the EMPS
     cascade ``u_k = clip(kp kv (ref_k - q_k) - kv (q_k - q_{k-2}) / (2 dt), +-sat) + ff_k`` on the
     loop's sensor ``q_k = (1 + gain) x(t_k - delay) + offset + bias``, where ``x`` is the motor
     position (``at_motor = 1``) or the load's, ``bias`` the sensor's known mean error (a floor
-    quantiser's -resolution/2) and ``sens[i] = [gain, offset, delay]`` row ``i``'s sensor terms.
+    quantiser's -resolution/2) and ``sens[i] = [gain, offset, delay]`` row ``i``'s sensor terms (one window only:
+    the loop's sensor history spans the record).
     """
     n = P.shape[0]
     T = u.shape[0]
     y = np.empty((T, n, 5))
     h = dt / n_sub
-    s0 = np.empty(N_STATE)  # a substep's start, for a step cut at an event
     xs = np.empty(T)
     ix = 2 if ctrl[4] == 1.0 else 0
     for i in range(n):
@@ -441,35 +442,36 @@ def simulate_kernel(P: np.ndarray, x0: np.ndarray, u: np.ndarray, fext: np.ndarr
         two_mass = Pi[9] > 0.0 or Pi[12] > 0.0
         dahl = Pi[14] > 0.0
         sticks = Pi[19] > 0.0 and Pi[4] + Pi[5] > 0.0
-        s = x0[i].copy()
-        q1 = 0.0
-        q2 = 0.0
-        for k in range(T):
-            if ctrl[0] == 1.0:
-                xs[k] = s[ix]
-                q = _sensed(xs, k, dt, sens[i, 0], sens[i, 1], sens[i, 2], ctrl[5])
-                if k == 0:
+        for w in range(starts.shape[0] - 1):
+            s = x0[w, i].copy()
+            q1 = 0.0
+            q2 = 0.0
+            for k in range(starts[w], starts[w + 1]):
+                if ctrl[0] == 1.0:
+                    xs[k] = s[ix]
+                    q = _sensed(xs, k, dt, sens[i, 0], sens[i, 1], sens[i, 2], ctrl[5])
+                    if k == 0:
+                        q1 = q
+                        q2 = q
+                    dq = (q - q2) / (2.0 * dt)
+                    uk = ctrl[1] * ctrl[2] * (ref[k] - q) - ctrl[2] * dq
+                    uk = min(max(uk, -ctrl[3]), ctrl[3]) + ff[k]
+                    q2 = q1
                     q1 = q
-                    q2 = q
-                dq = (q - q2) / (2.0 * dt)
-                uk = ctrl[1] * ctrl[2] * (ref[k] - q) - ctrl[2] * dq
-                uk = min(max(uk, -ctrl[3]), ctrl[3]) + ff[k]
-                q2 = q1
-                q1 = q
-            else:
-                uk = u[k]
-            y[k, i, 0] = s[0]
-            y[k, i, 1] = s[1]
-            y[k, i, 2] = s[2]
-            y[k, i, 3] = _transmitted(Pi, s, uk, two_mass)
-            y[k, i, 4] = uk
-            fk = fext[k]
-            if sticks:
-                _stick_slip_substeps(Pi, uk, fk, two_mass, dahl, s, h, n_sub, s0)
-            elif dahl:
-                _dahl_substeps(Pi, uk, fk, two_mass, s, h, n_sub)
-            else:
-                store_row(s, rk4_step((Pi, uk, fk, two_mass), load_row(s), h, n_sub))
+                else:
+                    uk = u[k]
+                y[k, i, 0] = s[0]
+                y[k, i, 1] = s[1]
+                y[k, i, 2] = s[2]
+                y[k, i, 3] = _transmitted(Pi, s, uk, two_mass)
+                y[k, i, 4] = uk
+                fk = fext[k]
+                if sticks:
+                    _stick_slip_substeps(Pi, uk, fk, two_mass, dahl, s, h, n_sub)
+                elif dahl:
+                    _dahl_substeps(Pi, uk, fk, two_mass, s, h, n_sub)
+                else:
+                    store_row(s, rk4_step((Pi, uk, fk, two_mass), load_row(s), h, n_sub))
     return y
 
 
@@ -547,8 +549,12 @@ def simulate(P: np.ndarray, u: np.ndarray, dt: float, *, x0: np.ndarray | None =
              fext: np.ndarray | None = None, ref: np.ndarray | None = None, ff: np.ndarray | None = None,
              controller: tuple[float, float, float] | None = None, n_sub: int | None = None,
              sensor_at_motor: bool = True, sensor_bias: float = 0.0, sensor: np.ndarray | None = None,
-             diverged: str = "raise") -> np.ndarray:
+             diverged: str = "raise", starts: np.ndarray | None = None) -> np.ndarray:
     """Batched roll-out (see :func:`simulate_kernel`); ``P`` is ``(n, len(PNAMES))``, ``u`` is ``(T,)``.
+
+    ``starts`` (multiple shooting, open loop only): the first sample of each window, ascending from 0; ``x0`` is
+    then ``(windows, n, N_STATE)``, each window's start states, and each row restarts there (one compiled call
+    for all windows, the same arithmetic as one roll-out per window).
 
     With a ``controller`` ``(kp, kv, saturation)`` the loop reads the position sensor at the motor
     (``sensor_at_motor``) or at the load, with the known ``sensor_bias`` and each row's sensor terms
@@ -565,16 +571,25 @@ def simulate(P: np.ndarray, u: np.ndarray, dt: float, *, x0: np.ndarray | None =
     u = np.ascontiguousarray(u, dtype=np.float64)
     T, n = u.shape[0], P.shape[0]
     z = np.zeros(T)
-    x0 = np.zeros((n, N_STATE)) if x0 is None else np.ascontiguousarray(np.broadcast_to(x0, (n, N_STATE)),
-                                                                         dtype=np.float64)
+    if starts is None:
+        cuts = np.array([0, T], dtype=np.int64)
+        x0 = np.zeros((n, N_STATE)) if x0 is None else np.broadcast_to(x0, (n, N_STATE))
+        x0 = np.ascontiguousarray(x0[None], dtype=np.float64)
+    else:
+        cuts = np.append(np.asarray(starts, dtype=np.int64), T)
+        if controller is not None or cuts[0] != 0 or np.any(np.diff(cuts) <= 0) or x0 is None:
+            raise ValueError("starts: open-loop windows from sample 0, ascending and within the samples, with x0 "
+                             "(windows, rows, N_STATE) of their start states")
+        x0 = np.ascontiguousarray(np.broadcast_to(x0, (len(cuts) - 1, n, N_STATE)), dtype=np.float64)
     ctrl = (np.zeros(6) if controller is None
             else np.array([1.0, *controller, 1.0 if sensor_at_motor else 0.0, float(sensor_bias)]))
     sens = (np.zeros((n, 3)) if sensor is None
             else np.ascontiguousarray(np.broadcast_to(sensor, (n, 3)), dtype=np.float64))
     ns = substeps(P, dt) if n_sub is None else int(n_sub)
-    xs = simulate_kernel(P, x0.copy(), u, z if fext is None else np.ascontiguousarray(fext, dtype=np.float64),
+    xs = simulate_kernel(P, x0, u, z if fext is None else np.ascontiguousarray(fext, dtype=np.float64),
                          z if ref is None else np.ascontiguousarray(ref, dtype=np.float64),
-                         z if ff is None else np.ascontiguousarray(ff, dtype=np.float64), ctrl, sens, float(dt), ns)
+                         z if ff is None else np.ascontiguousarray(ff, dtype=np.float64), ctrl, sens, float(dt), ns,
+                         cuts)
     if diverged == "raise":
         bad = np.flatnonzero(~np.all(np.isfinite(xs), axis=(0, 2)))
         if bad.size:
