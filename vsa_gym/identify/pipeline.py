@@ -68,7 +68,7 @@ from vsa_gym.identify.selection import (
     shares_force,
 )
 from vsa_gym.identify.shooting import DRIFT_NRMSE, RUNAWAY_NRMSE, WindowSelection, runs_away, shooting_window
-from vsa_gym.identify.starts import main_start, shape_variants, split_start, switch_flips
+from vsa_gym.identify.starts import main_start, restart_base, shape_variants, split_start, switch_flips
 
 # ----------------------------------------------------------------------------- estimator
 #: a candidate refused only for a shape or start at a bound is accepted where it replays the record within
@@ -232,12 +232,14 @@ class Identifier(LookAheads):
     def _refit_refined(self, ad: Adapter, fm: FittedModel, masks: dict[str, np.ndarray]) -> FittedModel:
         """``fm`` refitted on the adapter's refined replay (:func:`~vsa_gym.identify.convergence.refined`): from
         its values, and with each of its effects refitted again from that effect's starts beside the others;
-        the one that fits the fit part best."""
+        the one that fits the fit part best; a friction selected sticking is restarted sticking
+        (:func:`~vsa_gym.identify.starts.restart_base`; why: :mod:`~vsa_gym.identify.convergence`)."""
         fits = []
         for start in ("values", *fm.effects):
             t0 = time.perf_counter()
+            base, held = (fm, False) if start == "values" else restart_base(ad, fm, start)
             fits.append(self._refit(ad, fm, masks) if start == "values"
-                        else self._with(ad, without_effect(fm, start), start, masks))
+                        else self._with(ad, base, start, masks, hold_switches=held))
             self.refine_fits_.append({"from": start, "fit": fits[-1].fit_score, "coarse": fm.fit_score,
                                       "seconds": time.perf_counter() - t0})
         # a refit from an effect's own starts re-adds it last: the report keeps the selection's order
@@ -509,8 +511,9 @@ class Identifier(LookAheads):
             out.append(noise_floor(y, s.resolution) / (float(np.std(y)) or 1.0))
         return float(np.mean(out))
 
-    def _with(self, ad: Adapter, current: FittedModel, name: str, masks: dict[str, np.ndarray]) -> FittedModel:
-        """``current`` plus effect ``name``, all refitted jointly."""
+    def _with(self, ad: Adapter, current: FittedModel, name: str, masks: dict[str, np.ndarray],
+              hold_switches: bool = False) -> FittedModel:
+        """``current`` plus effect ``name``, all refitted jointly (``hold_switches``: ``current``'s switches kept)."""
         spec = ad.effects[name]
         init = {**current.theta(), **{k: p.typical for k, p in zip(spec.keys, spec.params, strict=True)}}
         init.update(main_start(ad, current, spec, masks["fit"]))
@@ -533,6 +536,8 @@ class Identifier(LookAheads):
         # an effect without shapes is still fitted with an accepted friction sticking (switch_flips)
         vary = switch_flips if len(held) == len(spec.keys) else shape_variants
         variants = vary(ad, current, fm, spec, masks["fit"])
+        held_on = [k for k, p in zip(current.keys, current.specs, strict=True) if p.switch] if hold_switches else []
+        variants = [(base, shape) for base, shape in variants if all(k in base.keys for k in held_on)]
         # the optional shape parameters are freed only where that validates better by the margin; the free fit
         # starts from the best point of a grid over the shapes (a friction that builds up over a wide speed range
         # or a contact that rings fits only near its own shape, far from the held default)

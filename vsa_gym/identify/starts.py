@@ -12,7 +12,7 @@ import numpy as np
 
 from vsa_gym.identify.adapters import Adapter
 from vsa_gym.identify.effects import EffectSpec, ParamSpec
-from vsa_gym.identify.fitting import SimulationErrorProblem, with_switch_on, without_keys
+from vsa_gym.identify.fitting import SimulationErrorProblem, with_switch_on, without_effect, without_keys
 from vsa_gym.identify.result import FittedModel
 from vsa_gym.identify.selection import shares_force
 
@@ -89,6 +89,27 @@ def switch_flips(ad: Adapter, current: FittedModel, fm: FittedModel, spec: Effec
                 out.append((with_switch_on(current, ad.effects[name], p),
                             shape_starts(ad, flipped, spec, mask, switches=False)[0]))
     return out
+
+
+def restart_base(ad: Adapter, fm: FittedModel, name: str) -> tuple[FittedModel, bool]:
+    """``fm`` without effect ``name``, the model that ``name`` is restarted beside from its own starts (the refined
+    refit, ``Identifier._refit_refined``), and whether that restart can hold ``fm``'s switches as they are.
+
+    A switch of ``name`` that is on in ``fm`` (a friction that sticks) is the same physical switch as that of
+    another of ``fm``'s effects which has one of the same name (a Stribeck excess and a Coulomb friction are one
+    friction: it sticks or it creeps): taken out with ``name``, it is turned on there, so the load still
+    sticks while ``name`` is restarted.  Where no other effect has that switch it cannot be held (False)."""
+    base = without_effect(fm, name)
+    for p in ad.effects[name].params:
+        if not (p.switch and f"{name}.{p.name}" in fm.keys):
+            continue
+        holder = next((e for e in base.effects if e in ad.effects and f"{e}.{p.name}" not in base.keys
+                       and any(q.switch and q.name == p.name for q in ad.effects[e].params)), None)
+        if holder is None:
+            return base, False
+        switch = next(q for q in ad.effects[holder].params if q.switch and q.name == p.name)
+        base = with_switch_on(base, ad.effects[holder], switch)
+    return base, True
 
 
 def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarray,
