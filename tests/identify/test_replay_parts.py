@@ -65,3 +65,33 @@ def test_residual_alone_then_jacobian_equal_one_batch(tmp_path):
     np.testing.assert_array_equal(J, ((R[1:] - R[0]) / (1e-3 * np.maximum(1.0, np.abs(x)))[:, None]).T)
     assert split.until == int(np.flatnonzero(masks["fit"])[-1]) + 1 < len(ad.t)
     assert np.any(J != 0.0)
+
+
+def test_shooting_windows_in_one_roll_out_are_each_window_alone_bit_for_bit():
+    """``simulate(starts=...)`` restarts every row at every window from that window's start state: the same
+    arithmetic as one roll-out per window (friction that sticks or creeps, a Dahl loop, a gap, a lag), and a
+    window list that does not tile the samples, or a closed loop, is refused."""
+    from vsa_gym.devices.drive import model as drive
+
+    rng = np.random.default_rng(7)
+    rows = [drive.DriveParams(F_c=0.3, F_s=0.2, v_s=0.01, delta_s=1.6, sticks=1.0, b=0.5),
+            drive.DriveParams(F_c=0.3, F_h=0.1, sigma_h=1e4, b=0.5, sticks=1.0),
+            drive.DriveParams(F_c=0.2, backlash=1e-3, frac_m=0.3, b=0.5, tau_e=2e-3),
+            drive.DriveParams(F_c=0.3, F_s=0.1, b=0.5)]
+    P = np.vstack([r.vector(1) for r in rows])
+    T, dt = 900, 1e-3
+    u = np.sin(np.arange(T) * dt * 2 * np.pi * 1.3) * 0.8 + rng.normal(0, 0.05, T)
+    starts = np.array([0, 250, 500, 640])
+    x0 = np.zeros((len(starts), len(rows), drive.N_STATE))
+    x0[:, :, 0] = x0[:, :, 2] = rng.normal(0, 0.01, (len(starts), len(rows)))
+    x0[:, :, 1] = x0[:, :, 3] = rng.normal(0, 0.05, (len(starts), len(rows)))
+    whole = drive.simulate(P, u, dt, x0=x0, n_sub=3, starts=starts)
+    assert np.all(np.isfinite(whole))
+    for w, (a, b) in enumerate(zip(starts, [*starts[1:], T], strict=True)):
+        alone = drive.simulate(P, u[a:b], dt, x0=x0[w], n_sub=3)
+        np.testing.assert_array_equal(whole[a:b], alone)
+    for bad in (np.array([10, 300]), np.array([0, 300, 300]), np.array([0, T])):
+        with pytest.raises(ValueError, match="starts"):
+            drive.simulate(P, u, dt, x0=x0[:len(bad)], n_sub=3, starts=bad)
+    with pytest.raises(ValueError, match="starts"):
+        drive.simulate(P, u, dt, x0=x0, n_sub=3, starts=starts, controller=(1.0, 1.0, 1.0))

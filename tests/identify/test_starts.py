@@ -133,3 +133,36 @@ def test_a_new_effect_is_also_tried_with_an_accepted_friction_sticking(coulomb_c
     assert base.theta()["coulomb_friction.F_c"] == creeping.theta()["coulomb_friction.F_c"]
     # a friction that already sticks is not flipped again
     assert [b for b, _ in starts.shape_variants(ad, base, with_gap, gap, masks["fit"])] == [base]
+
+
+def test_a_friction_selected_sticking_is_restarted_sticking(coulomb_case):
+    """The refined refit restarts each effect beside the others (Identifier._refit_refined): the switch that a
+    restarted Stribeck term takes out with it is held by the Coulomb term of the same friction, and no variant of
+    the restart turns it off; a switch that no other effect has cannot be held."""
+    from vsa_gym.identify.fitting import with_switch_on
+
+    ad, masks, held = coulomb_case
+    stribeck = ad.effects["stribeck_friction"]
+    stick = next(p for p in stribeck.params if p.switch)
+    f_s = stribeck.params[0]
+    fm = fit_model(ad, {}, held.keys + ["stribeck_friction.F_s"], held.specs + [f_s],
+                   {**held.theta(), "stribeck_friction.F_s": f_s.typical}, masks,
+                   (*held.effects, "stribeck_friction"), 3)
+    fm = with_switch_on(fm, stribeck, stick)
+    base, holds = starts.restart_base(ad, fm, "stribeck_friction")
+    assert holds and base.effects == ("coulomb_friction",)
+    assert "coulomb_friction.sticks" in base.keys and not any(k.startswith("stribeck") for k in base.keys)
+    other, holds = starts.restart_base(ad, fm, "coulomb_friction")
+    assert holds and "stribeck_friction.sticks" in other.keys and other.effects == ("stribeck_friction",)
+    alone, holds = starts.restart_base(ad, with_switch_on(held, ad.effects["coulomb_friction"],
+                                                           stick), "coulomb_friction")
+    assert not holds and alone.effects == ()
+
+    # the restart's variants (Identifier._with) keep the friction sticking: the one that lets both terms creep goes
+    with_f_s = fit_model(ad, {}, base.keys + ["stribeck_friction.F_s"], base.specs + [f_s],
+                         {**base.theta(), "stribeck_friction.F_s": f_s.typical}, masks,
+                         (*base.effects, "stribeck_friction"), 2)
+    variants = starts.shape_variants(ad, base, with_f_s, stribeck, masks["fit"])
+    assert any("coulomb_friction.sticks" not in b.keys for b, _ in variants)
+    kept = starts.holding_switches(base, variants)
+    assert kept and len(kept) < len(variants) and all("coulomb_friction.sticks" in b.keys for b, _ in kept)

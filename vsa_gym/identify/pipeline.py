@@ -68,7 +68,14 @@ from vsa_gym.identify.selection import (
     shares_force,
 )
 from vsa_gym.identify.shooting import DRIFT_NRMSE, RUNAWAY_NRMSE, WindowSelection, runs_away, shooting_window
-from vsa_gym.identify.starts import main_start, restart_base, shape_variants, split_start, switch_flips
+from vsa_gym.identify.starts import (
+    holding_switches,
+    main_start,
+    restart_base,
+    shape_variants,
+    split_start,
+    switch_flips,
+)
 
 # ----------------------------------------------------------------------------- estimator
 #: a candidate refused only for a shape or start at a bound is accepted where it replays the record within
@@ -536,8 +543,7 @@ class Identifier(LookAheads):
         # an effect without shapes is still fitted with an accepted friction sticking (switch_flips)
         vary = switch_flips if len(held) == len(spec.keys) else shape_variants
         variants = vary(ad, current, fm, spec, masks["fit"])
-        held_on = [k for k, p in zip(current.keys, current.specs, strict=True) if p.switch] if hold_switches else []
-        variants = [(base, shape) for base, shape in variants if all(k in base.keys for k in held_on)]
+        variants = holding_switches(current, variants) if hold_switches else variants
         # the optional shape parameters are freed only where that validates better by the margin; the free fit
         # starts from the best point of a grid over the shapes (a friction that builds up over a wide speed range
         # or a contact that rings fits only near its own shape, far from the held default)

@@ -112,6 +112,14 @@ def restart_base(ad: Adapter, fm: FittedModel, name: str) -> tuple[FittedModel, 
     return base, True
 
 
+def holding_switches(current: FittedModel, variants: list[tuple[FittedModel, dict[str, float]]]
+                     ) -> list[tuple[FittedModel, dict[str, float]]]:
+    """The ``variants`` (of :func:`shape_variants` or :func:`switch_flips`) whose model keeps every switch that
+    ``current`` has on: a restart of a friction selected sticking tries no variant that lets it creep."""
+    on = [k for k, p in zip(current.keys, current.specs, strict=True) if p.switch]
+    return [(base, shape) for base, shape in variants if all(k in base.keys for k in on)]
+
+
 def shape_starts(ad: Adapter, fm: FittedModel, spec: EffectSpec, mask: np.ndarray,
                  switches: bool = True) -> list[dict[str, float]]:
     """Start of an effect's optional shape parameters (with its main parameter): the best fit-part cost on a
