@@ -13,7 +13,7 @@ timing set, else a full set).
 With ``--against OLD NEW`` each ``DIR`` names a folder by its suffix after the prefix (``rel_s97`` with ``rel_``
 gives ``s97``); the redone cases (their time differs between ``OLD + suffix`` and ``NEW + suffix``) are compared:
 how many, their summed seconds before and after, the cases whose named effects or recovery changed, and those
-whose fitted values differ.
+whose fitted values differ (with the largest relative change of a value; the friction switch left out).
 """
 
 from __future__ import annotations
@@ -33,6 +33,21 @@ def reached(case: dict[str, Any], sticking: bool) -> bool:
     if "refitted at" not in (case.get("replay") or ""):
         return False
     return not sticking or any(v.get("sticks", 0.0) == 1.0 for v in (case.get("fitted") or {}).values())
+
+
+def _largest_change(old: dict[str, dict[str, float]], new: dict[str, dict[str, float]]) -> tuple[float, str]:
+    """The largest relative change of a fitted value between two cases' ``fitted`` dicts, and its key (a switch
+    that moved from one effect to another counts as no change of value)."""
+    best = (0.0, "")
+    for effect in set(old) & set(new):
+        for key in set(old[effect]) & set(new[effect]):
+            if key == "sticks":
+                continue
+            a, b = old[effect][key], new[effect][key]
+            change = abs(b - a) / max(abs(a), 1e-300)
+            if change > best[0]:
+                best = (change, f"{effect}.{key}")
+    return best
 
 
 def set_arguments(folder: str) -> str:
@@ -77,10 +92,11 @@ def main(argv: list[str] | None = None) -> int:
             if c["named"] != o["named"] or c["recovered"] != o["recovered"]:
                 changed.append(c["seed"])
             elif c["fitted"] != o["fitted"]:
-                moved.append(c["seed"])
+                moved.append((c["seed"], _largest_change(o["fitted"], c["fitted"])))
     print(f"redone: {n} cases, {t_old:.1f} s before, {t_new:.1f} s after")
     print(f"named effects or recovery changed: {len(changed)} {changed}")
-    print(f"the same named effects and recovery, fitted values differ: {len(moved)} {moved}")
+    print(f"the same named effects and recovery, fitted values differ: {len(moved)}"
+          + "".join(f"\n  {seed}: largest relative change {change:.2g} ({key})" for seed, (change, key) in moved))
     return 0
 
 

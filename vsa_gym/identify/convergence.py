@@ -19,8 +19,9 @@ A friction that the selection chose sticking is restarted sticking (the switch t
 it is held by another effect of the same friction, :func:`vsa_gym.identify.starts.restart_base`): the
 refinement is for laws that are only piecewise smooth, while a creeping friction's smooth law is converged at
 the substeps its own fastest mode sets, so at finer substeps it fits as it did when the selection refused it.
-On timing case 11054 (Stribeck and Coulomb friction, 1 kHz, 20 s) the creeping restarts took 5.7 s of the
-refit's 8.5 s and fitted at 0.47 to 1.0 (fit NRMSE) against the sticking model's 3.7e-4.
+On timing case 11054 (Stribeck and Coulomb friction, 1 kHz, 20 s) the Stribeck term's restart, which let the
+friction creep first, took 6.2 s and fitted at 5.1e-2 (fit NRMSE) against 3.7e-4 from the values; restarted
+sticking, 1.3 s and 3.4e-3 (``python -m benchmarks.refine_restarts`` on the timing set, before and after).
 The report states the substeps used and the change that set them.
 """
 
