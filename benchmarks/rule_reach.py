@@ -20,6 +20,11 @@ back-EMF) can only change a case whose record leaves the back-EMF share free (a 
 sidecar that does not give ``b_emf``): the record is drawn again from the case's seed and its adapter asked.  The
 list is every such case, whether or not a mesh loss was ranked or fitted in it.
 
+``--rule sticking-restart`` (twenty-seventh session: the refined refit restarts a friction selected sticking
+sticking, ``vsa_gym.identify.starts.restart_base``) can only change a case whose replay was refitted at finer
+substeps (its replay line says "refitted at") and whose fitted model has a friction that sticks (a ``sticks``
+switch on).
+
 Prints, per folder, the case seeds to give ``benchmarks.identify_truth --redo``.
 """
 
@@ -89,9 +94,16 @@ def emf_share_free(case: dict[str, Any]) -> bool:
         return EMF_SHARE in make_adapter(load_record(write_case(drawn, tmp))).free
 
 
+def refined_sticking(case: dict[str, Any]) -> bool:
+    """Whether ``case`` was refitted at finer substeps with a friction that sticks in its fitted model."""
+    return ("refitted at" in (case.get("replay") or "")
+            and any(v.get("sticks", 0.0) == 1.0 for v in (case.get("fitted") or {}).values()))
+
+
 #: rules decided from the record alone (a case spec of ``benchmarks.identify_truth`` is enough): its ``--reach``
 SPEC_RULES = {"emf-share": emf_share_free}
-RULES = {"polish": reachable, "low-rank": round_one_without_passer, **SPEC_RULES}
+RULES = {"polish": reachable, "low-rank": round_one_without_passer, "sticking-restart": refined_sticking,
+         **SPEC_RULES}
 
 
 def main(argv: list[str] | None = None) -> int:

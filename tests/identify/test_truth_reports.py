@@ -150,3 +150,22 @@ def test_substep_accuracy_shows_the_replay_converged_at_the_models_own_substeps(
     assert "diverged" in lines[1]
     at_rule, finer = (float(lines[n].split("NRMSE")[1].split()[0]) for n in (11, 38))
     assert at_rule == pytest.approx(finer, rel=1e-3)
+
+
+def test_compare_counts_moved_values_and_redone_cases_and_rule_reach_finds_refined_sticking_cases():
+    from benchmarks.rule_reach import RULES
+
+    def row(seed: int, seconds: float, f_s: float, sticks_on: str) -> dict:
+        fitted = {"coulomb_friction": {"F_c": 1.0, "sticks": float(sticks_on == "coulomb")},
+                  "stribeck_friction": {"F_s": f_s, "sticks": float(sticks_on == "stribeck")}}
+        return {**_case(seed, "single", ["coulomb_friction"], True, seconds, 2), "fitted": fitted,
+                "replay": "...; so it was refitted at 2x, and the held-out part is replayed so"}
+
+    old = {1: row(1, 10.0, 2.0, "stribeck"), 2: row(2, 5.0, 2.0, "stribeck")}
+    new = {1: row(1, 8.0, 2.002, "coulomb"), 2: row(2, 5.0, 2.0, "stribeck")}
+    text = "\n".join(compare(old, new))
+    assert "fitted values differ: 1" in text and "1: largest relative change 0.001 (stribeck_friction.F_s)" in text
+    assert "cases whose time differs (redone): 1, 10.0 s before, 8.0 s after" in text
+    assert RULES["sticking-restart"](old[1])
+    assert not RULES["sticking-restart"]({**old[1], "replay": "open-loop replay of the whole record"})
+    assert not RULES["sticking-restart"](row(3, 1.0, 2.0, "none"))

@@ -244,9 +244,11 @@ class Identifier(LookAheads):
         fits = []
         for start in ("values", *fm.effects):
             t0 = time.perf_counter()
-            base, held = (fm, False) if start == "values" else restart_base(ad, fm, start)
-            fits.append(self._refit(ad, fm, masks) if start == "values"
-                        else self._with(ad, base, start, masks, hold_switches=held))
+            if start == "values":
+                fits.append(self._refit(ad, fm, masks))
+            else:
+                base, held = restart_base(ad, fm, start)
+                fits.append(self._with(ad, base, start, masks, hold_switches=held))
             self.refine_fits_.append({"from": start, "fit": fits[-1].fit_score, "coarse": fm.fit_score,
                                       "seconds": time.perf_counter() - t0})
         # a refit from an effect's own starts re-adds it last: the report keeps the selection's order

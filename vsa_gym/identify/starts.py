@@ -103,12 +103,12 @@ def restart_base(ad: Adapter, fm: FittedModel, name: str) -> tuple[FittedModel, 
     for p in ad.effects[name].params:
         if not (p.switch and f"{name}.{p.name}" in fm.keys):
             continue
-        holder = next((e for e in base.effects if e in ad.effects and f"{e}.{p.name}" not in base.keys
-                       and any(q.switch and q.name == p.name for q in ad.effects[e].params)), None)
+        # the same switch on another effect of the model that does not hold it on already
+        holder = next(((ad.effects[e], q) for e in base.effects if e in ad.effects for q in ad.effects[e].params
+                       if q.switch and q.name == p.name and f"{e}.{q.name}" not in base.keys), None)
         if holder is None:
             return base, False
-        switch = next(q for q in ad.effects[holder].params if q.switch and q.name == p.name)
-        base = with_switch_on(base, ad.effects[holder], switch)
+        base = with_switch_on(base, *holder)
     return base, True
 
 

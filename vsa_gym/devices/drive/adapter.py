@@ -57,6 +57,7 @@ class DriveAdapter(Adapter):
         super().__init__(record)
         model = record.model
         self.params = drive.DriveParams(**model.get("params", {}))
+        self._nominal_row = self.params.vector(1)  # every candidate's parameter matrix starts from it
         self.rot = model.get("motion", "translational") == "rotational"
         transmission = model.get("transmission", "geared")
         if transmission not in TRANSMISSIONS:
@@ -234,9 +235,7 @@ class DriveAdapter(Adapter):
         return str(units.get("position", lin)), str(units.get("force", rot))
 
     def param_matrix(self, theta: Theta, n: int) -> np.ndarray:
-        if getattr(self, "_row_of", None) is not self.params:  # the nominal row, built once per parameter set
-            self._row, self._row_of = self.params.vector(1), self.params
-        P = np.repeat(self._row, n, axis=0)
+        P = np.repeat(self._nominal_row, n, axis=0)
         I = drive.PIDX
         for b in self.base:
             if b.name in I:
@@ -469,7 +468,7 @@ class DriveAdapter(Adapter):
         end = len(self.t) if until is None else min(int(until), len(self.t))
         out = np.full((len(self.t), n, len(self.outputs)), np.nan)
         if self.shooting:
-            # the windows tile the samples (the segments do): one compiled roll-out restarts each row at each
+            # the windows tile the samples (the segments do): one compiled roll-out restarts each row at each window
             windows = [(a, min(b, end)) for a, b in self._windows() if a < end]
             starts = np.array([a for a, _ in windows])
             y = self._rollout(P, 0, end, self._shoot_states(theta, P, starts), n_sub=n_sub, starts=starts)
